@@ -1,0 +1,225 @@
+"""Analytic primitives for the procedural scenes: ray intersection, inside test and feature edges.
+
+Each primitive lives in a local frame (``p_world = R p_local + center``) whose z axis is its axis.
+``intersect`` takes world rays ``(K, 3)`` and returns the nearest hit distance (``inf`` on a miss) and the
+unit world normal there.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+INF = np.inf
+
+
+def _quadratic_roots(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both roots of ``a t² + b t + c`` (``nan`` where none are real); ``t0 ≤ t1``."""
+    disc = b * b - 4 * a * c
+    ok = (disc >= 0) & (np.abs(a) > 1e-12)
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    safe_a = np.where(ok, a, 1.0)
+    r0, r1 = (-b - sq) / (2 * safe_a), (-b + sq) / (2 * safe_a)
+    t0, t1 = np.minimum(r0, r1), np.maximum(r0, r1)
+    return np.where(ok, t0, np.nan), np.where(ok, t1, np.nan)
+
+
+@dataclass
+class Primitive:
+    """Base: pose and colour. Subclasses define the shape in the local frame."""
+
+    center: np.ndarray
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+
+    kind = "primitive"
+
+    def to_local(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return (o - self.center) @ self.R, d @ self.R
+
+    def intersect(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = np.full(len(o), INF)
+        n = np.zeros_like(o)
+        # Only rays that meet the bounding sphere can hit: most pixels are background or other parts.
+        oc = o - self.center
+        b = np.einsum("ij,ij->i", oc, d)
+        r = self.bounding_radius()
+        near = (b * b - (np.einsum("ij,ij->i", oc, oc) - r * r) >= 0) & (b < r)
+        if near.any():
+            ol, dl = self.to_local(o[near], d[near])
+            tn, nn = self._intersect_local(ol, dl)
+            t[near], n[near] = tn, nn @ self.R.T
+        return t, n
+
+    def bounding_radius(self) -> float:
+        """Radius of a sphere around ``center`` that holds the primitive."""
+        raise NotImplementedError
+
+    def contains(self, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """Points within the primitive grown by ``margin`` (world units)."""
+        return self._contains_local((p - self.center) @ self.R, margin)
+
+    def feature_edges(self) -> np.ndarray:
+        """Sharp edges as world segments ``(K, 2, 3)``."""
+        local = self._edges_local()
+        return local @ self.R.T + self.center if len(local) else np.zeros((0, 2, 3))
+
+    def _edges_local(self) -> np.ndarray:
+        return np.zeros((0, 2, 3))
+
+    def to_dict(self) -> dict:
+        return {"type": self.kind, "center": self.center.tolist(), "rotation_matrix": self.R.tolist(),
+                "color": list(self.color)}
+
+
+@dataclass
+class Sphere(Primitive):
+    radius: float = 0.5
+    kind = "sphere"
+
+    def _intersect_local(self, o, d):
+        t0, t1 = _quadratic_roots((d * d).sum(-1), 2 * (o * d).sum(-1), (o * o).sum(-1) - self.radius**2)
+        t = np.where(t0 > 1e-9, t0, np.where(t1 > 1e-9, t1, np.nan))
+        t = np.nan_to_num(t, nan=INF)
+        p = o + np.where(np.isfinite(t), t, 0)[:, None] * d
+        return t, p / self.radius
+
+    def _contains_local(self, p, margin):
+        return np.linalg.norm(p, axis=-1) <= self.radius + margin
+
+    def bounding_radius(self):
+        return self.radius
+
+    def to_dict(self):
+        return {**super().to_dict(), "radius": self.radius}
+
+
+@dataclass
+class Box(Primitive):
+    half: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
+    kind = "box"
+
+    def _intersect_local(self, o, d):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / np.where(np.abs(d) < 1e-15, 1e-15, d)
+            ta, tb = (-self.half - o) * inv, (self.half - o) * inv
+        tmin, tmax = np.minimum(ta, tb), np.maximum(ta, tb)
+        t_near, axis = tmin.max(-1), tmin.argmax(-1)
+        t_far = tmax.min(-1)
+        hit = (t_near <= t_far) & (t_near > 1e-9)
+        n = np.zeros_like(o)
+        rows = np.arange(len(o))
+        n[rows, axis] = -np.sign(d[rows, axis])
+        return np.where(hit, t_near, INF), n
+
+    def _contains_local(self, p, margin):
+        return (np.abs(p) <= self.half + margin).all(-1)
+
+    def bounding_radius(self):
+        return float(np.linalg.norm(self.half))
+
+    def _edges_local(self):
+        h = self.half
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float) * h
+        edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
+        return np.array([[corners[i], corners[j]] for i, j in edges])
+
+    def to_dict(self):
+        return {**super().to_dict(), "half_size": self.half.tolist()}
+
+
+def _circle(radius: float, z: float, segments: int = 48) -> np.ndarray:
+    a = np.linspace(0, 2 * math.pi, segments + 1)
+    pts = np.stack([radius * np.cos(a), radius * np.sin(a), np.full_like(a, z)], -1)
+    return np.stack([pts[:-1], pts[1:]], axis=1)
+
+
+def _caps(o, d, t_best, n_best, z_plane, radius, normal_z):
+    """Update the nearest hit with a disk cap at height ``z_plane``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tc = (z_plane - o[:, 2]) / d[:, 2]
+    p = o + np.nan_to_num(tc, nan=0, posinf=0, neginf=0)[:, None] * d
+    ok = np.isfinite(tc) & (tc > 1e-9) & ((p[:, 0] ** 2 + p[:, 1] ** 2) <= radius**2) & (tc < t_best)
+    t_best = np.where(ok, tc, t_best)
+    n_best = np.where(ok[:, None], np.array([0.0, 0.0, normal_z]), n_best)
+    return t_best, n_best
+
+
+@dataclass
+class Cylinder(Primitive):
+    """Capped cylinder from local z = 0 to z = height."""
+
+    radius: float = 0.2
+    height: float = 1.0
+    kind = "cylinder"
+
+    def _intersect_local(self, o, d):
+        a = d[:, 0] ** 2 + d[:, 1] ** 2
+        b = 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1])
+        c = o[:, 0] ** 2 + o[:, 1] ** 2 - self.radius**2
+        t0, t1 = _quadratic_roots(a, b, c)
+        t_best = np.full(len(o), INF)
+        n_best = np.zeros_like(o)
+        for tr in (t1, t0):  # t0 last so the nearer valid root wins
+            z = o[:, 2] + np.nan_to_num(tr) * d[:, 2]
+            ok = np.isfinite(tr) & (tr > 1e-9) & (z >= 0) & (z <= self.height) & (tr < t_best)
+            p = o + np.nan_to_num(tr)[:, None] * d
+            t_best = np.where(ok, tr, t_best)
+            n_best = np.where(ok[:, None], np.stack([p[:, 0], p[:, 1], 0 * p[:, 2]], -1) / self.radius, n_best)
+        t_best, n_best = _caps(o, d, t_best, n_best, 0.0, self.radius, -1.0)
+        return _caps(o, d, t_best, n_best, self.height, self.radius, 1.0)
+
+    def _contains_local(self, p, margin):
+        return (np.hypot(p[..., 0], p[..., 1]) <= self.radius + margin) & (p[..., 2] >= -margin) & (p[..., 2] <= self.height + margin)
+
+    def _edges_local(self):
+        return np.concatenate([_circle(self.radius, 0.0), _circle(self.radius, self.height)])
+
+    def bounding_radius(self):
+        return math.hypot(self.radius, self.height)
+
+    def to_dict(self):
+        return {**super().to_dict(), "radius": self.radius, "height": self.height}
+
+
+@dataclass
+class Cone(Primitive):
+    """Cone with its base disk at local z = 0 (radius ``radius``) and apex at z = ``height``."""
+
+    radius: float = 0.3
+    height: float = 0.6
+    kind = "cone"
+
+    def _intersect_local(self, o, d):
+        k2 = (self.radius / self.height) ** 2
+        hz = self.height - o[:, 2]
+        a = d[:, 0] ** 2 + d[:, 1] ** 2 - k2 * d[:, 2] ** 2
+        b = 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1] + k2 * hz * d[:, 2])
+        c = o[:, 0] ** 2 + o[:, 1] ** 2 - k2 * hz**2
+        t0, t1 = _quadratic_roots(a, b, c)
+        t_best = np.full(len(o), INF)
+        n_best = np.zeros_like(o)
+        for tr in (t1, t0):
+            p = o + np.nan_to_num(tr)[:, None] * d
+            ok = np.isfinite(tr) & (tr > 1e-9) & (p[:, 2] >= 0) & (p[:, 2] <= self.height) & (tr < t_best)
+            g = np.stack([p[:, 0], p[:, 1], k2 * (self.height - p[:, 2])], -1)
+            g /= np.maximum(np.linalg.norm(g, axis=-1, keepdims=True), 1e-12)
+            t_best = np.where(ok, tr, t_best)
+            n_best = np.where(ok[:, None], g, n_best)
+        return _caps(o, d, t_best, n_best, 0.0, self.radius, -1.0)
+
+    def _contains_local(self, p, margin):
+        z = p[..., 2]
+        r = self.radius * (1 - np.clip(z, 0, self.height) / self.height)
+        return (np.hypot(p[..., 0], p[..., 1]) <= r + margin) & (z >= -margin) & (z <= self.height + margin)
+
+    def _edges_local(self):
+        return _circle(self.radius, 0.0)
+
+    def bounding_radius(self):
+        return max(self.radius, self.height)
+
+    def to_dict(self):
+        return {**super().to_dict(), "radius": self.radius, "height": self.height}

@@ -1,0 +1,81 @@
+"""Analytic ray casting of primitive scenes into shaded RGBA images."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from ..cameras import Camera
+from .primitives import Primitive
+
+# Two fixed world-space lights (key from above, fill from the side) so that faces of a box meeting at an edge
+# get clearly different brightness from every viewpoint: the edges the fitting should find are visible.
+_LIGHTS = (
+    (np.array([0.35, 0.55, 1.0]) / np.linalg.norm([0.35, 0.55, 1.0]), 0.65),
+    (np.array([-0.8, -0.25, 0.3]) / np.linalg.norm([-0.8, -0.25, 0.3]), 0.3),
+)
+_AMBIENT = 0.25
+
+
+def cast(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nearest hits of rays ``(K, 3)``: distance ``(K,)`` (inf on a miss), normal ``(K, 3)``, primitive index (−1)."""
+    t_best = np.full(len(origins), np.inf)
+    n_best = np.zeros_like(origins)
+    idx = np.full(len(origins), -1)
+    # Cull rays that miss a sphere around the whole scene first: most pixels are background.
+    c = np.mean([p.center for p in primitives], axis=0)
+    r = max(np.linalg.norm(p.center - c) + p.bounding_radius() for p in primitives)
+    oc = origins - c
+    b = np.einsum("ij,ij->i", oc, dirs)
+    live = np.flatnonzero(b * b - (np.einsum("ij,ij->i", oc, oc) - r * r) >= 0)
+    o, d = origins[live], dirs[live]
+    for i, prim in enumerate(primitives):
+        t, n = prim.intersect(o, d)
+        closer = t < t_best[live]
+        hit = live[closer]
+        t_best[hit], n_best[hit], idx[hit] = t[closer], n[closer], i
+    return t_best, n_best, idx
+
+
+def _shade(primitives: list[Primitive], dirs: np.ndarray, n: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Premultiplied RGBA ``(K, 4)`` of ray hits (Lambert, two world lights plus ambient)."""
+    n = np.where(np.einsum("ij,ij->i", n, dirs)[:, None] > 0, -n, n)  # face the viewer
+    shade = np.full(len(n), _AMBIENT)
+    for direction, strength in _LIGHTS:
+        shade += strength * np.clip(n @ direction, 0.0, None)
+    colors = np.array([p.color for p in primitives] + [(0.0, 0.0, 0.0)])
+    hit = (idx >= 0)[:, None]
+    return np.concatenate([colors[idx] * np.clip(shade, 0, 1.2)[:, None] * hit, hit.astype(float)], -1)
+
+
+def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 2) -> np.ndarray:
+    """Shaded RGBA ``uint8 (H, W, 4)``, transparent background.
+
+    Anti-aliasing is adaptive: pixels whose primitive or face differs from a neighbour's are re-cast with
+    ``supersample²`` rays; flat interiors keep their single ray (3-4× faster than uniform supersampling).
+    """
+    H, W = camera.height, camera.width
+    o, d = camera.rays()
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    _, n, idx = cast(primitives, o, d)
+    rgba = _shade(primitives, d, n, idx)
+    if supersample > 1:
+        key = (idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])  # primitive and face
+        key = key.reshape(H, W)
+        edge = np.zeros((H, W), bool)
+        edge |= ndimage.maximum_filter(key, 3) != key
+        edge |= ndimage.minimum_filter(key, 3) != key
+        ys, xs = np.nonzero(edge)
+        off = (np.arange(supersample) + 0.5) / supersample
+        du, dv = np.meshgrid(off, off)
+        u = (xs[:, None] + du.ravel()[None]).ravel()
+        v = (ys[:, None] + dv.ravel()[None]).ravel()
+        so, sd = camera.rays_at(u, v)
+        _, sn, sidx = cast(primitives, so, sd)
+        sub = _shade(primitives, sd, sn, sidx).reshape(len(xs), -1, 4).mean(axis=1)
+        rgba.reshape(H, W, 4)[ys, xs] = sub
+    rgba = rgba.reshape(H, W, 4)
+    alpha = rgba[..., 3:4]
+    rgb = np.where(alpha > 0, rgba[..., :3] / np.maximum(alpha, 1e-6), 0.0)  # un-premultiply
+    out = np.concatenate([np.clip(rgb, 0, 1), alpha], -1)
+    return (out * 255 + 0.5).astype(np.uint8)

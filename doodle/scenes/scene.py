@@ -1,0 +1,87 @@
+"""The typed result of every dataset parser: cameras, images, masks, points and the scene frame."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..cameras import Camera, azimuth_elevation
+from ..strokes.model import DefaultCamera, SceneFrame
+
+
+@dataclass
+class Scene:
+    """Posed images of one object.
+
+    Images are ``uint8 (H, W, 3)`` composited over white; masks are ``bool (H, W)`` (``True`` = object) or
+    absent; points are SfM points ``(P, 3)`` or absent. All geometry is in the input's world coordinates.
+    """
+
+    cameras: list[Camera]
+    images: list[np.ndarray]
+    frame: SceneFrame
+    masks: list[np.ndarray] | None = None
+    points: np.ndarray | None = None
+    source: str = ""
+    image_paths: list[Path] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.cameras)
+
+    def subset(self, indices: list[int] | np.ndarray) -> "Scene":
+        """The scene restricted to the given views."""
+        idx = [int(i) for i in indices]
+        return Scene(
+            [self.cameras[i] for i in idx], [self.images[i] for i in idx], self.frame,
+            [self.masks[i] for i in idx] if self.masks is not None else None, self.points, self.source,
+            [self.image_paths[i] for i in idx] if self.image_paths else [],
+        )
+
+
+def closest_point_to_axes(cameras: list[Camera]) -> np.ndarray:
+    """Least-squares point nearest to all optical axes (the point the cameras look at)."""
+    A = np.zeros((3, 3))
+    b = np.zeros(3)
+    for cam in cameras:
+        d = cam.forward
+        P = np.eye(3) - np.outer(d, d)
+        A += P
+        b += P @ cam.center
+    if np.linalg.matrix_rank(A) < 3:  # all axes parallel: fall back to the mean position ahead of the cameras
+        return np.mean([c.center + c.forward for c in cameras], axis=0)
+    return np.linalg.solve(A, b)
+
+
+def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: np.ndarray | None = None) -> SceneFrame:
+    """Scene frame from camera poses: ``up`` is the mean camera up (−y) unless given; ``center`` is the point
+    nearest all optical axes; ``radius`` the largest sphere around it that every camera sees whole (its
+    median), shrunk to the 98th percentile of point distances when SfM points are given.
+    The default orbit camera takes the median distance, field of view and elevation, and view 0 the first
+    camera's azimuth.
+    """
+    if not cameras:
+        raise ValueError("no cameras")
+    if up is None:
+        up = np.mean([-c.R[1] for c in cameras], axis=0)
+        if np.linalg.norm(up) < 1e-6:
+            up = np.array([0.0, 0.0, 1.0])
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    center = closest_point_to_axes(cameras)
+    dists = np.array([np.linalg.norm(c.center - center) for c in cameras])
+    half_fov = np.array([math.atan(0.5 * min(c.width / c.fx, c.height / c.fy)) for c in cameras])
+    radius = float(np.median(dists * np.sin(half_fov)))
+    if points is not None and len(points) >= 10:
+        radius = min(radius, float(np.percentile(np.linalg.norm(points - center, axis=1), 98)))
+    frame = SceneFrame(up=up, center=center, radius=radius)
+    angles = [azimuth_elevation(c.center, frame) for c in cameras]
+    c0 = cameras[0]
+    frame.camera = DefaultCamera(
+        fov_deg=float(np.median([c.fov_deg for c in cameras])),
+        distance=float(np.median(dists)),
+        elevation_deg=float(np.clip(np.median([a[1] for a in angles]), -80, 80)),
+        width=int(c0.width), height=int(c0.height), azimuth_deg=float(angles[0][0]),
+    )
+    return frame

@@ -1,0 +1,268 @@
+"""The ``.doodle`` stroke file: JSON v1 (DESIGN.md) with strict validation, and atomic writing.
+
+Readers check every field and raise :class:`~doodle.errors.StrokeFileError` with a message that names the
+file and the field (``lego.doodle: curves.control_points[3][1]: expected 3 numbers``). Unknown keys of the
+top level, ``scene``, ``scene.camera`` and ``curves`` are kept in :attr:`StrokeSet.extra` and written back.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..atomic import write_bytes
+from ..errors import StrokeFileError
+from .model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
+
+FORMAT = "doodle-strokes"
+VERSION = 1
+MAX_CURVES = 65535
+MAX_SUPERQUADRICS = 255
+MAX_FILE_BYTES = 64 * 1024 * 1024
+SHAPE_RANGE = (0.1, 1.9)
+_QUAT_TOL = 1e-3
+
+_KNOWN = {
+    "": {"format", "version", "scene", "curves", "superquadrics", "provenance"},
+    "scene": {"up", "center", "radius", "camera"},
+    "scene.camera": {"fov_deg", "distance", "elevation_deg", "width", "height", "azimuth_deg"},
+    "curves": {"control_points", "width_px"},
+}
+
+
+class _Invalid(Exception):
+    """Internal: a field failed validation (message names the field)."""
+
+
+def _obj(value: Any, name: str) -> dict:
+    if not isinstance(value, dict):
+        raise _Invalid(f"{name}: expected an object, got {type(value).__name__}")
+    return value
+
+
+def _number(value: Any, name: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _Invalid(f"{name}: expected a number, got {type(value).__name__}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise _Invalid(f"{name}: must be finite, got {value}")
+    if v < lo or v > hi or (lo_open and v == lo):
+        bracket = "(" if lo_open else "["
+        raise _Invalid(f"{name}: {v:g} outside {bracket}{lo:g}, {hi:g}]")
+    return v
+
+
+def _int(value: Any, name: str, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _Invalid(f"{name}: expected an integer, got {type(value).__name__}")
+    if not lo <= value <= hi:
+        raise _Invalid(f"{name}: {value} outside [{lo}, {hi}]")
+    return value
+
+
+def _vector(value: Any, n: int, name: str) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != n:
+        raise _Invalid(f"{name}: expected {n} numbers")
+    return np.array([_number(v, f"{name}[{i}]") for i, v in enumerate(value)], dtype=np.float64)
+
+
+def _required(d: dict, key: str, prefix: str) -> Any:
+    if key not in d:
+        raise _Invalid(f"{prefix}{key}: missing")
+    return d[key]
+
+
+def _extras(d: dict, section: str) -> dict:
+    return {k: v for k, v in d.items() if k not in _KNOWN[section]}
+
+
+def stroke_set_from_dict(data: Any) -> StrokeSet:
+    """Validate a decoded JSON document and build a :class:`StrokeSet`.
+
+    Raises:
+        StrokeFileError: naming the first invalid field.
+    """
+    try:
+        return _parse(data)
+    except _Invalid as exc:
+        raise StrokeFileError(str(exc)) from None
+
+
+def _parse(data: Any) -> StrokeSet:
+    top = _obj(data, "document")
+    if top.get("format") != FORMAT:
+        raise _Invalid(f"format: expected {FORMAT!r}, got {top.get('format')!r}")
+    version = top.get("version")
+    if isinstance(version, bool) or version != VERSION:
+        raise _Invalid(f"version: unsupported version {version!r} (this doodle reads version {VERSION})")
+
+    scene = _obj(_required(top, "scene", ""), "scene")
+    up = _vector(_required(scene, "up", "scene."), 3, "scene.up")
+    if np.linalg.norm(up) < 1e-9:
+        raise _Invalid("scene.up: must be a non-zero vector")
+    cam = _obj(_required(scene, "camera", "scene."), "scene.camera")
+    camera = DefaultCamera(
+        fov_deg=_number(_required(cam, "fov_deg", "scene.camera."), "scene.camera.fov_deg", 0.0, 179.0, lo_open=True),
+        distance=_number(_required(cam, "distance", "scene.camera."), "scene.camera.distance", 0.0, lo_open=True),
+        elevation_deg=_number(_required(cam, "elevation_deg", "scene.camera."), "scene.camera.elevation_deg", -90.0, 90.0),
+        width=_int(_required(cam, "width", "scene.camera."), "scene.camera.width", 1, 16384),
+        height=_int(_required(cam, "height", "scene.camera."), "scene.camera.height", 1, 16384),
+        azimuth_deg=_number(cam.get("azimuth_deg", 0.0), "scene.camera.azimuth_deg"),
+    )
+    frame = SceneFrame(
+        up=up / np.linalg.norm(up),
+        center=_vector(_required(scene, "center", "scene."), 3, "scene.center"),
+        radius=_number(_required(scene, "radius", "scene."), "scene.radius", 0.0, lo_open=True),
+        camera=camera,
+    )
+
+    curves_d = _obj(_required(top, "curves", ""), "curves")
+    cps = _required(curves_d, "control_points", "curves.")
+    if not isinstance(cps, list):
+        raise _Invalid("curves.control_points: expected a list of curves")
+    if len(cps) > MAX_CURVES:
+        raise _Invalid(f"curves.control_points: {len(cps)} curves exceed the limit of {MAX_CURVES}")
+    control = np.zeros((len(cps), 4, 3))
+    for i, curve in enumerate(cps):
+        if not isinstance(curve, list) or len(curve) != 4:
+            raise _Invalid(f"curves.control_points[{i}]: expected 4 control points")
+        for j, p in enumerate(curve):
+            control[i, j] = _vector(p, 3, f"curves.control_points[{i}][{j}]")
+    width_px = _number(curves_d.get("width_px", 1.5), "curves.width_px", 0.0, 1000.0, lo_open=True)
+
+    sq_list = _required(top, "superquadrics", "")
+    if not isinstance(sq_list, list):
+        raise _Invalid("superquadrics: expected a list")
+    if len(sq_list) > MAX_SUPERQUADRICS:
+        raise _Invalid(f"superquadrics: {len(sq_list)} exceed the limit of {MAX_SUPERQUADRICS}")
+    m = len(sq_list)
+    sq = SuperquadricSet(np.zeros((m, 3)), np.zeros((m, 2)), np.zeros((m, 4)), np.zeros((m, 3)))
+    for i, item in enumerate(sq_list):
+        name = f"superquadrics[{i}]"
+        item = _obj(item, name)
+        sq.scale[i] = [_number(v, f"{name}.scale[{k}]", 0.0, lo_open=True) for k, v in
+                       enumerate(_checked_list(_required(item, "scale", f"{name}."), 3, f"{name}.scale"))]
+        sq.shape[i] = [_number(v, f"{name}.shape[{k}]", SHAPE_RANGE[0] - 1e-6, SHAPE_RANGE[1] + 1e-6) for k, v in
+                       enumerate(_checked_list(_required(item, "shape", f"{name}."), 2, f"{name}.shape"))]
+        q = _vector(_required(item, "rotation", f"{name}."), 4, f"{name}.rotation")
+        norm = float(np.linalg.norm(q))
+        if abs(norm - 1.0) > _QUAT_TOL:
+            raise _Invalid(f"{name}.rotation: quaternion norm {norm:.6g} is not 1 (tolerance {_QUAT_TOL})")
+        sq.rotation[i] = q / norm
+        sq.translation[i] = _vector(_required(item, "translation", f"{name}."), 3, f"{name}.translation")
+
+    provenance = top.get("provenance", {})
+    if not isinstance(provenance, dict):
+        raise _Invalid("provenance: expected an object")
+
+    extra = {s: e for s, e in (("", _extras(top, "")), ("scene", _extras(scene, "scene")),
+                               ("scene.camera", _extras(cam, "scene.camera")), ("curves", _extras(curves_d, "curves"))) if e}
+    return StrokeSet(frame, CurveSet(control, width_px), sq, dict(provenance), extra)
+
+
+def _checked_list(value: Any, n: int, name: str) -> list:
+    if not isinstance(value, list) or len(value) != n:
+        raise _Invalid(f"{name}: expected {n} numbers")
+    return value
+
+
+def _floats(a: np.ndarray) -> list:
+    """Plain Python floats, rounded to 9 significant digits (well below any tolerance, half the bytes)."""
+    return [float(f"{v:.9g}") for v in np.asarray(a, dtype=np.float64).ravel()] if a.ndim == 1 else [_floats(r) for r in a]
+
+
+def stroke_set_to_dict(strokes: StrokeSet) -> dict:
+    """The JSON document of a stroke set (DESIGN.md "Stroke file"), extras included."""
+    f, cam = strokes.frame, strokes.frame.camera
+    extra = strokes.extra
+    sq = strokes.superquadrics
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "scene": {
+            "up": _floats(f.up), "center": _floats(f.center), "radius": float(f.radius),
+            "camera": {"fov_deg": float(cam.fov_deg), "distance": float(cam.distance),
+                       "elevation_deg": float(cam.elevation_deg), "width": int(cam.width), "height": int(cam.height),
+                       "azimuth_deg": float(cam.azimuth_deg), **extra.get("scene.camera", {})},
+            **extra.get("scene", {}),
+        },
+        "curves": {"control_points": _floats(strokes.curves.control_points.reshape(-1, 4, 3)) if len(strokes.curves) else [],
+                   "width_px": float(strokes.curves.width_px), **extra.get("curves", {})},
+        "superquadrics": [
+            {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
+             "translation": _floats(sq.translation[i])}
+            for i in range(len(sq))
+        ],
+        "provenance": strokes.provenance,
+        **extra.get("", {}),
+    }
+
+
+def dumps(strokes: StrokeSet) -> str:
+    """Serialise to JSON text (one curve per line keeps diffs readable)."""
+    return json.dumps(stroke_set_to_dict(strokes), indent=1, allow_nan=False) + "\n"
+
+
+def loads(text: str | bytes, source: str = "<string>") -> StrokeSet:
+    """Parse JSON text; errors name ``source``."""
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise StrokeFileError(f"{source}: not valid JSON ({_first_line(exc)})") from None
+    try:
+        return stroke_set_from_dict(data)
+    except StrokeFileError as exc:
+        raise StrokeFileError(f"{source}: {exc}") from None
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not allowed")
+
+
+def _first_line(exc: BaseException) -> str:
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
+def read_strokes(path: str | os.PathLike) -> StrokeSet:
+    """Read a stroke file, JSON or compact binary (detected from its first bytes)."""
+    from .binary import MAGIC, decode  # local: binary imports this module
+
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise StrokeFileError(f"{path}: file is {size} bytes, larger than the {MAX_FILE_BYTES}-byte limit")
+        raw = path.read_bytes()
+    except IsADirectoryError:
+        raise StrokeFileError(f"{path}: is a directory, not a stroke file") from None
+    except FileNotFoundError:
+        raise StrokeFileError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise StrokeFileError(f"{path}: cannot read ({exc.strerror})") from None
+    if raw.startswith(MAGIC):
+        try:
+            return decode(raw)
+        except StrokeFileError as exc:
+            raise StrokeFileError(f"{path}: {exc}") from None
+    return loads(raw, source=str(path))
+
+
+def write_strokes(path: str | os.PathLike, strokes: StrokeSet, binary: bool | None = None) -> int:
+    """Write atomically; binary when ``binary`` is true or, if ``None``, the suffix is ``.doodleb``.
+
+    Returns:
+        The number of bytes written.
+    """
+    from .binary import encode
+
+    path = Path(path)
+    if binary is None:
+        binary = path.suffix == ".doodleb"
+    data = encode(strokes) if binary else dumps(strokes).encode("utf-8")
+    write_bytes(path, data)
+    return len(data)

@@ -1,0 +1,100 @@
+"""The stroke model: what a fit produces and every exporter reads.
+
+Arrays are numpy float64; the fitting core turns them into torch tensors (see ``doodle.fit``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class DefaultCamera:
+    """The camera an orbit uses when no dataset is at hand (DESIGN.md "Orbit")."""
+
+    fov_deg: float = 39.6
+    """Vertical and horizontal field of view of the (square-pixel) pinhole, degrees."""
+    distance: float = 4.0
+    """Distance from ``center`` to the camera, scene units."""
+    elevation_deg: float = 30.0
+    """Angle above the plane perpendicular to ``up``, degrees."""
+    width: int = 800
+    height: int = 800
+    azimuth_deg: float = 0.0
+    """Azimuth of orbit view 0 around ``up`` (the first dataset camera's, when known)."""
+
+
+@dataclass
+class SceneFrame:
+    """The frame a stroke set was fitted in: ``up`` (unit), bounding sphere ``center``/``radius``."""
+
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    center: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    radius: float = 1.0
+    camera: DefaultCamera = field(default_factory=DefaultCamera)
+
+
+@dataclass
+class CurveSet:
+    """View-independent strokes: ``N`` cubic Bézier curves, control points ``(N, 4, 3)``."""
+
+    control_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 3)))
+    width_px: float = 1.5
+
+    def __len__(self) -> int:
+        return int(self.control_points.shape[0])
+
+
+@dataclass
+class SuperquadricSet:
+    """View-dependent strokes: ``M`` superquadrics whose union's contour is drawn."""
+
+    scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    shape: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    """Unit quaternions ``(w, x, y, z)``."""
+    translation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __len__(self) -> int:
+        return int(self.scale.shape[0])
+
+    def subset(self, keep: np.ndarray) -> "SuperquadricSet":
+        """The superquadrics selected by a boolean mask or index array."""
+        return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep])
+
+
+@dataclass
+class StrokeSet:
+    """Everything a ``.doodle`` file holds."""
+
+    frame: SceneFrame = field(default_factory=SceneFrame)
+    curves: CurveSet = field(default_factory=CurveSet)
+    superquadrics: SuperquadricSet = field(default_factory=SuperquadricSet)
+    provenance: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+    """Unknown top-level keys of the file, kept so a round trip loses nothing."""
+
+    @property
+    def is_empty(self) -> bool:
+        return len(self.curves) == 0 and len(self.superquadrics) == 0
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned box of the curve control points and superquadric extents (a safe bound)."""
+        pts = [self.curves.control_points.reshape(-1, 3)]
+        if len(self.superquadrics):
+            reach = np.linalg.norm(self.superquadrics.scale, axis=1, keepdims=True)  # bounding sphere
+            pts += [self.superquadrics.translation - reach, self.superquadrics.translation + reach]
+        allp = np.concatenate(pts, axis=0)
+        if allp.size == 0:
+            c = np.asarray(self.frame.center, dtype=float)
+            return c.copy(), c.copy()
+        return allp.min(axis=0), allp.max(axis=0)
+
+
+def orbit_distance_for(radius: float, fov_deg: float, margin: float = 1.05) -> float:
+    """Distance at which a sphere of ``radius`` just fits a ``fov_deg`` view (with ``margin``)."""
+    return margin * radius / math.sin(math.radians(fov_deg) / 2)

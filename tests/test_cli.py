@@ -1,0 +1,74 @@
+import json
+import re
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from doodle import __version__
+from doodle.cli import cli
+from doodle.strokes import read_strokes, write_strokes
+
+from helpers import random_strokes
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def test_version(runner):
+    r = runner.invoke(cli, ["--version"])
+    assert r.exit_code == 0 and __version__ in r.output
+
+
+def test_every_command_has_help_and_is_documented(runner):
+    readme = README.read_text()
+    for name, cmd in cli.commands.items():
+        assert cmd.help, name
+        assert runner.invoke(cli, [name, "--help"]).exit_code == 0
+        assert re.search(rf"doodle {name}\b", readme), f"`doodle {name}` missing from README"
+
+
+def test_info_and_json(runner, tmp_path):
+    p = tmp_path / "s.doodle"
+    write_strokes(p, random_strokes())
+    r = runner.invoke(cli, ["info", str(p)])
+    assert r.exit_code == 0 and "curves          32" in r.output and "binary" in r.output
+    d = json.loads(runner.invoke(cli, ["info", "--json", str(p)]).output)
+    assert d["curves"] == 32 and d["superquadrics"] == 8 and d["bytes"]["binary"] <= 1024
+
+
+def test_info_corrupt_file_one_line_exit_2(runner, tmp_path):
+    p = tmp_path / "bad.doodle"
+    p.write_text('{"format": "doodle-strokes", "version": 1, "scene": {"up": [0, 0, "x"]}}')
+    r = runner.invoke(cli, ["info", str(p)])
+    assert r.exit_code == 2
+    assert r.output.strip().count("\n") == 0 and "bad.doodle" in r.output and "scene.up[2]" in r.output
+    assert "Traceback" not in r.output
+
+
+def test_convert_round_trip(runner, tmp_path):
+    src = tmp_path / "a.doodle"
+    write_strokes(src, random_strokes())
+    assert runner.invoke(cli, ["convert", str(src), str(tmp_path / "b.doodleb")]).exit_code == 0
+    assert runner.invoke(cli, ["convert", str(tmp_path / "b.doodleb"), str(tmp_path / "c.json"), "--to", "json"]).exit_code == 0
+    assert len(read_strokes(tmp_path / "c.json").curves) == 32
+
+
+def test_convert_bad_input_keeps_output(runner, tmp_path):
+    dst = tmp_path / "out.doodleb"
+    dst.write_bytes(b"precious")
+    (tmp_path / "bad.doodle").write_text("{")
+    r = runner.invoke(cli, ["convert", str(tmp_path / "bad.doodle"), str(dst)])
+    assert r.exit_code == 2 and dst.read_bytes() == b"precious"
+
+
+def test_sample_writes_scene(runner, tmp_path):
+    r = runner.invoke(cli, ["sample", "lamp", str(tmp_path / "lamp"), "--train", "2", "--test", "1", "--size", "32"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "lamp" / "train" / "r_1.png").exists() and (tmp_path / "lamp" / "ground_truth.json").exists()
+    r = runner.invoke(cli, ["sample", "nope", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "unknown sample scene" in r.output

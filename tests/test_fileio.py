@@ -1,0 +1,184 @@
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from doodle.errors import StrokeFileError
+from doodle.strokes import dumps, loads, read_strokes, stroke_set_to_dict, write_strokes
+from doodle.strokes.binary import decode, encode
+from doodle.strokes.superquadric import quaternion_to_matrix
+
+from helpers import random_strokes
+
+
+def _assert_close(a, b, tol):
+    assert np.abs(a.curves.control_points - b.curves.control_points).max(initial=0) <= tol
+    sa, sb = a.superquadrics, b.superquadrics
+    assert np.abs(sa.translation - sb.translation).max(initial=0) <= tol
+    assert np.abs(sa.scale - sb.scale).max(initial=0) <= tol
+    assert np.abs(sa.shape - sb.shape).max(initial=0) <= 1e-3
+    assert np.abs(quaternion_to_matrix(sa.rotation) - quaternion_to_matrix(sb.rotation)).max(initial=0) <= 1e-3
+
+
+class TestJson:
+    def test_round_trip_exact_enough(self, tmp_path):
+        s = random_strokes()
+        write_strokes(tmp_path / "a.doodle", s)
+        back = read_strokes(tmp_path / "a.doodle")
+        _assert_close(s, back, 1e-8)
+        assert back.provenance == s.provenance
+
+    def test_document_matches_design(self):
+        doc = stroke_set_to_dict(random_strokes(n_curves=2, n_sq=1))
+        assert doc["format"] == "doodle-strokes" and doc["version"] == 1
+        assert set(doc["scene"]) >= {"up", "center", "radius", "camera"}
+        assert set(doc["scene"]["camera"]) >= {"fov_deg", "distance", "elevation_deg", "width", "height"}
+        assert np.array(doc["curves"]["control_points"]).shape == (2, 4, 3)
+        assert set(doc["superquadrics"][0]) == {"scale", "shape", "rotation", "translation"}
+
+    def test_unknown_keys_survive(self):
+        doc = stroke_set_to_dict(random_strokes(n_curves=1, n_sq=0))
+        doc["my_tool"] = {"a": 1}
+        doc["scene"]["note"] = "hi"
+        doc["curves"]["color"] = "#123456"
+        again = json.loads(dumps(loads(json.dumps(doc))))
+        assert again["my_tool"] == {"a": 1} and again["scene"]["note"] == "hi" and again["curves"]["color"] == "#123456"
+
+    @pytest.mark.parametrize(
+        "mutate,field",
+        [
+            (lambda d: d.update(version=2), "version"),
+            (lambda d: d.update(format="svg"), "format"),
+            (lambda d: d["scene"].pop("radius"), "scene.radius"),
+            (lambda d: d["scene"].update(radius=-1), "scene.radius"),
+            (lambda d: d["curves"]["control_points"][1][2].__setitem__(0, "x"), "curves.control_points[1][2][0]"),
+            (lambda d: d["curves"]["control_points"][0].pop(), "curves.control_points[0]"),
+            (lambda d: d["superquadrics"][0].update(rotation=[2, 0, 0, 0]), "superquadrics[0].rotation"),
+            (lambda d: d["superquadrics"][0].update(shape=[0.05, 1.0]), "superquadrics[0].shape[0]"),
+            (lambda d: d["superquadrics"][0].update(scale=[1, 0, 1]), "superquadrics[0].scale[1]"),
+            (lambda d: d["scene"]["camera"].update(width=1.5), "scene.camera.width"),
+        ],
+    )
+    def test_errors_name_the_field(self, tmp_path, mutate, field):
+        doc = stroke_set_to_dict(random_strokes(n_curves=3, n_sq=2))
+        mutate(doc)
+        p = tmp_path / "bad.doodle"
+        p.write_text(json.dumps(doc))
+        with pytest.raises(StrokeFileError) as exc:
+            read_strokes(p)
+        msg = str(exc.value)
+        assert msg.startswith(str(p)) and field in msg and "\n" not in msg
+
+    def test_nan_rejected(self):
+        text = dumps(random_strokes(n_curves=1, n_sq=0)).replace('"radius": 1.5', '"radius": NaN')
+        with pytest.raises(StrokeFileError, match="NaN"):
+            loads(text)
+
+    def test_write_is_atomic(self, tmp_path, monkeypatch):
+        p = tmp_path / "keep.doodle"
+        write_strokes(p, random_strokes(seed=1))
+        before = p.read_bytes()
+        import doodle.strokes.fileio as fio
+
+        monkeypatch.setattr(fio, "dumps", lambda s: (_ for _ in ()).throw(RuntimeError("boom")))
+        with pytest.raises(RuntimeError):
+            write_strokes(p, random_strokes(seed=2))
+        assert p.read_bytes() == before
+        assert [f.name for f in tmp_path.iterdir()] == ["keep.doodle"]
+
+
+class TestBinary:
+    def test_32_curves_8_superquadrics_fit_in_1kb(self):
+        assert len(encode(random_strokes(n_curves=32, n_sq=8))) <= 1024
+
+    def test_round_trip_within_1e_3_radius(self):
+        s = random_strokes(seed=3, radius=2.0)
+        _assert_close(s, decode(encode(s)), 1e-3 * 2.0)
+
+    def test_suffix_selects_binary(self, tmp_path):
+        write_strokes(tmp_path / "a.doodleb", random_strokes())
+        assert (tmp_path / "a.doodleb").read_bytes()[:4] == b"DDLB"
+        assert len(read_strokes(tmp_path / "a.doodleb").curves) == 32
+
+
+# ---- property-based: valid files round-trip, corrupt ones raise StrokeFileError only -------------------------
+
+finite = st.floats(-50, 50, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def stroke_sets(draw):
+    n = draw(st.integers(0, 40))
+    m = draw(st.integers(0, 10))
+    seed = draw(st.integers(0, 2**31))
+    radius = draw(st.floats(0.01, 100))
+    s = random_strokes(seed=seed, n_curves=n, n_sq=m, radius=radius)
+    s.frame.center = np.array([draw(finite), draw(finite), draw(finite)])
+    s.curves.control_points = s.curves.control_points + s.frame.center
+    s.superquadrics.translation = s.superquadrics.translation + s.frame.center
+    return s
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(stroke_sets())
+def test_property_valid_files_round_trip(s):
+    _assert_close(s, loads(dumps(s)), 1e-6 * max(1.0, float(np.abs(s.frame.center).max()) + s.frame.radius))
+    _assert_close(s, decode(encode(s)), 1e-3 * s.frame.radius)
+
+
+def _corruptions():
+    json_like = st.recursive(
+        st.none() | st.booleans() | st.integers(-10**30, 10**30) | st.floats() | st.text(max_size=5),
+        lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=4), kids, max_size=4),
+        max_leaves=12,
+    )
+    return json_like
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_property_corrupt_json_raises_only_stroke_file_error(data):
+    doc = stroke_set_to_dict(random_strokes(n_curves=3, n_sq=2))
+    text = json.dumps(doc)
+    kind = data.draw(st.sampled_from(["truncate", "replace-value", "flip-byte", "huge"]))
+    if kind == "truncate":
+        text = text[: data.draw(st.integers(0, len(text) - 1))]
+    elif kind == "flip-byte":
+        i = data.draw(st.integers(0, len(text) - 1))
+        text = text[:i] + data.draw(st.characters()) + text[i + 1:]
+    elif kind == "huge":
+        doc["curves"]["control_points"] = [[[0.0, 0, 0]] * 4] * 70000
+        text = json.dumps(doc)
+    else:
+        path = data.draw(st.sampled_from([("scene", "radius"), ("scene", "up"), ("curves", "control_points"),
+                                          ("superquadrics",), ("version",), ("scene", "camera", "fov_deg"),
+                                          ("curves", "width_px"), ("provenance",)]))
+        target = doc
+        for key in path[:-1]:
+            target = target[key]
+        target[path[-1]] = data.draw(_corruptions())
+        text = json.dumps(doc)
+    try:
+        loads(text)
+    except StrokeFileError as exc:
+        assert "\n" not in str(exc)
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_property_corrupt_binary_raises_only_stroke_file_error(data):
+    raw = bytearray(encode(random_strokes(n_curves=5, n_sq=3)))
+    kind = data.draw(st.sampled_from(["truncate", "flip", "append"]))
+    if kind == "truncate":
+        raw = raw[: data.draw(st.integers(0, len(raw) - 1))]
+    elif kind == "flip":
+        for _ in range(data.draw(st.integers(1, 8))):
+            raw[data.draw(st.integers(0, len(raw) - 1))] = data.draw(st.integers(0, 255))
+    else:
+        raw += data.draw(st.binary(min_size=1, max_size=20))
+    try:
+        decode(bytes(raw))
+    except StrokeFileError:
+        pass

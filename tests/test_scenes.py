@@ -1,0 +1,149 @@
+import json
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+from scipy import ndimage
+
+from doodle.cameras import Camera, look_at
+from doodle.errors import SceneError
+from doodle.samples import load_ground_truth, render_rgba, sample_cameras
+from doodle.samples.scenes import chair
+from doodle.scenes import detect_format, load_colmap, load_nerf_synthetic, load_nerfstudio, load_scene
+
+
+def _visual_hull_consistency(scene, n_carve: int = 12) -> float:
+    """Carve a voxel hull from some masks; the fraction of hull voxels that land inside the held-out masks."""
+    r = scene.frame.radius
+    g = np.linspace(-r, r, 40)
+    pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3) + scene.frame.center
+    inside = np.ones(len(pts), bool)
+    for cam, mask in zip(scene.cameras[:n_carve], scene.masks[:n_carve]):
+        inside &= _in_mask(cam, mask, pts)
+    hull = pts[inside]
+    assert len(hull) > 50, "visual hull is empty: camera convention is wrong"
+    fr = [_in_mask(c, ndimage.binary_dilation(m, iterations=2), hull).mean() for c, m in
+          zip(scene.cameras[n_carve:], scene.masks[n_carve:])]
+    return float(np.mean(fr))
+
+
+def _in_mask(cam: Camera, mask: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    uv, z = cam.project(pts)
+    u, v = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
+    ok = (z > 0) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
+    out = np.zeros(len(pts), bool)
+    out[ok] = mask[v[ok], u[ok]]
+    return out
+
+
+class TestNerfSynthetic:
+    def test_real_lego_views_agree(self, lego_dir):
+        scene = load_nerf_synthetic(lego_dir, downscale=8)
+        assert len(scene) == 100 and scene.images[0].shape == (100, 100, 3)
+        assert np.allclose(scene.frame.up, [0, 0, 1])
+        assert scene.frame.camera.distance == pytest.approx(4.03, abs=0.05)
+        assert _visual_hull_consistency(scene) > 0.97
+
+    def test_procedural_edges_reproject_onto_image_edges(self, chair_dir):
+        scene = load_scene(chair_dir, split="test")
+        gt = load_ground_truth(chair_dir)
+        mids = gt["feature_edges"].mean(axis=1)
+        from doodle.samples import cast
+
+        hits = []
+        for cam, img in zip(scene.cameras, scene.images):
+            uv, z = cam.project(mids)
+            o = np.broadcast_to(cam.center, mids.shape)
+            d = (mids - cam.center) / z[:, None].clip(1e-9) / np.linalg.norm((mids - cam.center) / z[:, None], axis=1, keepdims=True)
+            t, _, _ = cast(gt["primitives"], o, d)
+            visible = t > np.linalg.norm(mids - cam.center, axis=1) - 0.02
+            gray = img.astype(float).mean(-1)
+            grad = ndimage.maximum_filter(np.hypot(ndimage.sobel(gray, 0), ndimage.sobel(gray, 1)), size=3)
+            u, v = uv[visible].astype(int).T
+            ok = (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
+            hits.append(grad[v[ok], u[ok]] > 40)
+        assert np.concatenate(hits).mean() > 0.9
+
+    def test_procedural_hull(self, chair_dir):
+        assert _visual_hull_consistency(load_scene(chair_dir), n_carve=8) > 0.97
+
+    def test_downscale_and_split(self, chair_dir):
+        scene = load_nerf_synthetic(chair_dir, split="test", downscale=2)
+        assert len(scene) == 4 and scene.cameras[0].width == 64 and scene.masks[0].shape == (64, 64)
+
+    @pytest.mark.parametrize("content,msg", [("{", "not valid JSON"), ('{"frames": []}', "non-empty 'frames'"),
+                                             ('{"frames": [{"file_path": "a"}]}', "camera_angle_x")])
+    def test_bad_transforms(self, tmp_path, content, msg):
+        (tmp_path / "transforms_train.json").write_text(content)
+        with pytest.raises(SceneError, match=msg):
+            load_scene(tmp_path)
+
+    def test_missing_image_named(self, tmp_path):
+        (tmp_path / "transforms_train.json").write_text(json.dumps(
+            {"camera_angle_x": 0.7, "frames": [{"file_path": "./train/r_0", "transform_matrix": np.eye(4).tolist()}]}))
+        with pytest.raises(SceneError, match="r_0.png"):
+            load_scene(tmp_path)
+
+    def test_not_a_scene(self, tmp_path):
+        with pytest.raises(SceneError, match="no transforms_train.json"):
+            detect_format(tmp_path)
+
+
+def _fake_views(tmp_path, n=6, size=64):
+    """Render the chair from n cameras; returns cameras and saves RGBA images under tmp_path/images."""
+    cams = sample_cameras("train", n, size)
+    (tmp_path / "images").mkdir()
+    for c in cams:
+        Image.fromarray(render_rgba(chair(), c, 1)).save(tmp_path / "images" / f"{c.name}.png")
+    return cams
+
+
+class TestNerfstudio:
+    def test_shared_and_per_frame_intrinsics(self, tmp_path):
+        cams = _fake_views(tmp_path)
+        frames = [{"file_path": f"images/{c.name}.png",
+                   "transform_matrix": (c.c2w @ np.diag([1.0, -1, -1, 1])).tolist()} for c in cams]
+        frames[1].update(fl_x=cams[1].fx, fl_y=cams[1].fy)  # per-frame override
+        (tmp_path / "transforms.json").write_text(json.dumps(
+            {"fl_x": cams[0].fx, "fl_y": cams[0].fy, "cx": 32, "cy": 32, "w": 64, "h": 64, "frames": frames}))
+        scene = load_nerfstudio(tmp_path)
+        assert detect_format(tmp_path) == "nerfstudio"
+        for a, b in zip(scene.cameras, cams):
+            assert np.allclose(a.R, b.R, atol=1e-9) and np.allclose(a.t, b.t, atol=1e-9)
+        assert scene.masks is not None and scene.masks[0].any()
+
+    def test_missing_intrinsics(self, tmp_path):
+        (tmp_path / "transforms.json").write_text(json.dumps(
+            {"frames": [{"file_path": "a.png", "transform_matrix": np.eye(4).tolist()}]}))
+        with pytest.raises(SceneError, match="fl_x"):
+            load_nerfstudio(tmp_path)
+
+
+class TestColmap:
+    def test_text_model_through_pycolmap(self, tmp_path):
+        cams = _fake_views(tmp_path)
+        model = tmp_path / "sparse" / "0"
+        model.mkdir(parents=True)
+        c0 = cams[0]
+        (model / "cameras.txt").write_text(f"1 PINHOLE 64 64 {c0.fx} {c0.fy} {c0.cx} {c0.cy}\n")
+        lines = []
+        from doodle.strokes.superquadric import matrix_to_quaternion
+
+        for i, c in enumerate(cams):
+            q = matrix_to_quaternion(c.R)
+            lines.append(f"{i + 1} {' '.join(map(str, q))} {' '.join(map(str, c.t))} 1 {c.name}.png\n\n")
+        (model / "images.txt").write_text("".join(lines))
+        (model / "points3D.txt").write_text("1 0.1 0.2 0.3 255 0 0 0.5\n")
+        scene = load_scene(tmp_path)
+        assert detect_format(tmp_path) == "colmap" and len(scene) == len(cams)
+        by_name = {c.name: c for c in cams}
+        for c in scene.cameras:
+            assert np.allclose(c.R, by_name[c.name].R, atol=1e-6) and np.allclose(c.t, by_name[c.name].t, atol=1e-6)
+        assert scene.points.shape == (1, 3)
+        assert np.linalg.norm(scene.frame.center) < 0.05
+
+    def test_unreadable_model(self, tmp_path):
+        (tmp_path / "cameras.txt").write_text("garbage\n")
+        with pytest.raises(SceneError):
+            load_colmap(tmp_path)
