@@ -38,5 +38,13 @@ def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -
     return load_colmap(root, downscale=downscale)
 
 
-__all__ = ["Scene", "SceneError", "detect_format", "estimate_frame", "load_colmap", "load_nerf_synthetic",
+def load_cameras(root: str | Path, split: str = "test") -> list:
+    """Only the cameras of a scene folder (NeRF-synthetic: without decoding any image but the first's size)."""
+    fmt = detect_format(root)
+    if fmt == "nerf-synthetic":
+        return load_nerf_synthetic(root, split, with_images=False).cameras
+    return load_scene(root, split).cameras
+
+
+__all__ = ["load_cameras", "Scene", "SceneError", "detect_format", "estimate_frame", "load_colmap", "load_nerf_synthetic",
            "load_nerfstudio", "load_scene"]

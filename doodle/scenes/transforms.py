@@ -62,10 +62,12 @@ def _image_path(root: Path, file_path: str) -> Path:
     return p.with_name(p.name + ".png")
 
 
-def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float = 1.0) -> Scene:
+def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float = 1.0,
+                        with_images: bool = True) -> Scene:
     """Load a NeRF-synthetic folder (``transforms_{split}.json``, RGBA images; alpha is the mask).
 
-    ``fx = 0.5 · width / tan(0.5 · camera_angle_x)``; world up is +z.
+    ``fx = 0.5 · width / tan(0.5 · camera_angle_x)``; world up is +z. ``with_images=False`` reads only the
+    first image's size (for drawing the dataset's cameras).
     """
     root = Path(root)
     if split not in SPLITS:
@@ -81,6 +83,21 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
             raise SceneError(f"{path}: frames[{i}].file_path missing")
         img_path = _image_path(root, fr["file_path"])
         R, t = _pose(fr, path, i)
+        if i == 0 and not with_images:
+            from PIL import Image
+
+            try:
+                with Image.open(img_path) as im:
+                    w0, h0 = im.size
+            except OSError as exc:
+                raise SceneError(f"{img_path}: cannot read image ({exc})") from None
+            size = (max(1, round(w0 / downscale)), max(1, round(h0 / downscale)))
+        if not with_images:
+            w, h = size
+            cameras.append(Camera(0.5 * w / math.tan(0.5 * angle), 0.5 * w / math.tan(0.5 * angle), w / 2, h / 2,
+                                  w, h, R, t, name=img_path.stem))
+            paths.append(img_path)
+            continue
         if i == 0:  # the first image fixes the working size of all of them
             rgb, mask = read_image(img_path)
             h0, w0 = rgb.shape[:2]
@@ -96,7 +113,7 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
         masks.append(mask if mask is not None else np.ones((h, w), bool))
         paths.append(img_path)
     frame = estimate_frame(cameras, up=np.array([0.0, 0.0, 1.0]))
-    return Scene(cameras, images, frame, masks, None, str(root), paths)
+    return Scene(cameras, images, frame, masks if with_images else None, None, str(root), paths)
 
 
 def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:

@@ -7,12 +7,17 @@ from __future__ import annotations
 
 import torch
 
+import numpy as np
+
 from ..arrays import check_shape, numpy_in_numpy_out
 
-_BINOMIAL = (1.0, 3.0, 3.0, 1.0)
+
+def _cat_last(parts: list) -> "np.ndarray | torch.Tensor":
+    # The evaluation functions below are plain arithmetic that numpy and torch share, so numpy callers (the
+    # exporters, thousands of tiny calls per view) skip the conversion to torch.
+    return torch.cat(parts, dim=-1) if isinstance(parts[0], torch.Tensor) else np.concatenate(parts, axis=-1)
 
 
-@numpy_in_numpy_out
 def bernstein(t: torch.Tensor) -> torch.Tensor:
     """Cubic Bernstein basis ``b_j(t)``.
 
@@ -27,10 +32,9 @@ def bernstein(t: torch.Tensor) -> torch.Tensor:
     """
     t = t[..., None]
     s = 1.0 - t
-    return torch.cat([s**3, 3 * t * s**2, 3 * t**2 * s, t**3], dim=-1)
+    return _cat_last([s**3, 3 * t * s**2, 3 * t**2 * s, t**3])
 
 
-@numpy_in_numpy_out
 def bezier_points(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     """Evaluate curves at parameters ``t``.
 
@@ -41,10 +45,11 @@ def bezier_points(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
         ``(..., T, D)`` points.
     """
     check_shape(control, (4, None), "control")
-    return bernstein(t.to(control.dtype)) @ control
+    if isinstance(control, torch.Tensor):
+        t = torch.as_tensor(t).to(control)
+    return bernstein(t) @ control
 
 
-@numpy_in_numpy_out
 def bezier_derivative(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     """First derivative ``dB/dt`` at ``t``: a quadratic Bézier on ``3 (p_{j+1} - p_j)``.
 
@@ -56,10 +61,11 @@ def bezier_derivative(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     """
     check_shape(control, (4, None), "control")
     d = 3.0 * (control[..., 1:, :] - control[..., :-1, :])
-    t = t.to(control.dtype)[..., None]
+    if isinstance(control, torch.Tensor):
+        t = torch.as_tensor(t).to(control)
+    t = t[..., None]
     s = 1.0 - t
-    basis = torch.cat([s**2, 2 * t * s, t**2], dim=-1)
-    return basis @ d
+    return _cat_last([s**2, 2 * t * s, t**2]) @ d
 
 
 @numpy_in_numpy_out

@@ -1,0 +1,116 @@
+"""``doodle export``: draw a stroke set for many cameras into SVG / PNG / PDF files and a contact sheet."""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from PIL import Image
+
+from ..cameras import Camera, Projection, orbit_cameras
+from ..errors import DoodleError
+from ..strokes.model import StrokeSet
+from .drawing import DrawOptions, check_camera, draw
+from .raster import contact_sheet, svg_to_pdf, svg_to_png
+from .svg import to_svg
+
+
+@dataclass
+class ExportOptions:
+    """What to write for each view."""
+
+    svg: bool = True
+    png: bool = False
+    pdf: bool = False
+    sheet: Path | None = None
+    """Also write all views in one grid image here."""
+    background: str | None = "white"
+    """PNG/PDF/sheet background colour, or ``None`` for transparent PNGs. SVGs stay transparent."""
+    draw: DrawOptions = field(default_factory=DrawOptions)
+    source: str = ""
+
+
+def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,
+                   split: str = "test", size: tuple[int, int | None] | None = None,
+                   projection: Projection = "perspective") -> list[Camera]:
+    """The cameras to draw: an orbit of ``views`` cameras, or the cameras of a dataset's ``split``.
+
+    ``size = (width, height)`` resizes them (height ``None`` keeps the aspect ratio).
+    """
+    if scene_dir is not None:
+        from ..scenes import load_cameras
+
+        cams = load_cameras(scene_dir, split)
+        if projection == "orthographic":
+            raise DoodleError("--projection ortho applies to orbits only; dataset cameras are perspective")
+        if size:
+            cams = [c.resized(size[0], size[1]) for c in cams]
+        return cams
+    if views is None or views < 1:
+        raise DoodleError(f"--views must be at least 1, got {views}")
+    w, h = size if size else (None, None)
+    return orbit_cameras(strokes.frame, views, w, h, projection)
+
+
+def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.PathLike,
+                 options: ExportOptions | None = None, progress=None) -> list[Path]:
+    """Write ``view_000.svg`` … (and PNG/PDF, sheet) for each camera into ``out_dir``.
+
+    Everything is validated and rendered into a temporary folder first, then moved into ``out_dir``: on any
+    error ``out_dir`` is left as it was.
+
+    Returns:
+        The written paths.
+    """
+    opt = options or ExportOptions()
+    if strokes.is_empty:
+        raise DoodleError("the stroke set is empty: nothing to draw")
+    if not cameras:
+        raise DoodleError("no cameras to draw")
+    if not (opt.svg or opt.png or opt.pdf or opt.sheet):
+        raise DoodleError("nothing to write: choose --svg, --png, --pdf or --sheet")
+    for cam in cameras:
+        check_camera(strokes, cam)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise DoodleError(f"{out}: exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".doodle-export-", dir=out))
+    written: list[Path] = []
+    sheet_images: list[Image.Image] = []
+    try:
+        for k, cam in enumerate(cameras):
+            stem = f"view_{k:03d}"
+            svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source)
+            if opt.svg:
+                (tmp / f"{stem}.svg").write_text(svg, encoding="utf-8")
+            if opt.png or opt.sheet:
+                png = svg_to_png(svg, opt.background)
+                if opt.png:
+                    (tmp / f"{stem}.png").write_bytes(png)
+                if opt.sheet:
+                    sheet_images.append(Image.open(io.BytesIO(png)))
+            if opt.pdf:
+                (tmp / f"{stem}.pdf").write_bytes(svg_to_pdf(svg))
+            if progress:
+                progress(k + 1, len(cameras))
+        if opt.sheet:
+            sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))])
+            sheet_tmp = tmp / "sheet.png"
+            sheet.save(sheet_tmp)
+        for f in sorted(tmp.iterdir()):
+            if f.name == "sheet.png":
+                continue
+            os.replace(f, out / f.name)
+            written.append(out / f.name)
+        if opt.sheet:
+            Path(opt.sheet).parent.mkdir(parents=True, exist_ok=True)
+            shutil.move(str(tmp / "sheet.png"), str(opt.sheet))
+            written.append(Path(opt.sheet))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return written

@@ -1,0 +1,47 @@
+"""PNG and PDF through cairosvg (same geometry as the SVG), and contact sheets through Pillow."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import cairosvg
+import numpy as np
+from PIL import Image
+
+
+def svg_to_png(svg: str, background: str | None = "white", scale: float = 1.0) -> bytes:
+    """Rasterise SVG text; ``background=None`` keeps transparency."""
+    return cairosvg.svg2png(bytestring=svg.encode("utf-8"), background_color=background, scale=scale)
+
+
+def svg_to_pdf(svg: str) -> bytes:
+    return cairosvg.svg2pdf(bytestring=svg.encode("utf-8"))
+
+
+def svg_to_array(svg: str, background: str | None = "white") -> np.ndarray:
+    """Rasterise to an ``uint8 (H, W, 4)`` array."""
+    with Image.open(io.BytesIO(svg_to_png(svg, background))) as im:
+        return np.asarray(im.convert("RGBA"))
+
+
+def contact_sheet(images: list[Image.Image], columns: int | None = None, cell: int = 256,
+                  labels: list[str] | None = None, background: str = "white") -> Image.Image:
+    """All images in one grid, each fitted into a ``cell``-pixel square, optional labels underneath."""
+    n = len(images)
+    columns = columns or max(1, math.ceil(math.sqrt(n)))
+    rows = math.ceil(n / columns)
+    label_h = 14 if labels else 0
+    sheet = Image.new("RGB", (columns * cell, rows * (cell + label_h)), background)
+    from PIL import ImageDraw
+
+    draw = ImageDraw.Draw(sheet)
+    for k, im in enumerate(images):
+        im = im.convert("RGBA")
+        im.thumbnail((cell, cell), Image.Resampling.LANCZOS)
+        x = (k % columns) * cell + (cell - im.width) // 2
+        y = (k // columns) * (cell + label_h) + (cell - im.height) // 2
+        sheet.paste(im, (x, y), im)
+        if labels:
+            draw.text(((k % columns) * cell + 4, (k // columns) * (cell + label_h) + cell), labels[k], fill=(90, 90, 90))
+    return sheet

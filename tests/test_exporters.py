@@ -1,0 +1,262 @@
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import svgelements
+from click.testing import CliRunner
+from PIL import Image
+from scipy import ndimage
+
+from doodle.cameras import Camera, look_at, orbit_cameras
+from doodle.cli import cli
+from doodle.errors import DoodleError
+from doodle.exporters import DrawOptions, ExportOptions, draw, export_views, svg_to_array, to_svg, union_mask
+from doodle.exporters.project import depth_intervals, project_curve
+from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, write_strokes
+from doodle.strokes.bezier import bezier_points
+
+from helpers import random_strokes
+
+I = [1.0, 0.0, 0.0, 0.0]
+
+
+def _camera(eye, size=512, fov=40.0, target=(0, 0, 0)):
+    R, t = look_at(np.asarray(eye, float), np.asarray(target, float), np.array([0, 0, 1.0]))
+    f = 0.5 * size / np.tan(np.radians(fov) / 2)
+    return Camera(f, f, size / 2, size / 2, size, size, R, t, name="test")
+
+
+def _strokes(curves=None, sq=None, radius=1.0):
+    return StrokeSet(SceneFrame(radius=radius), CurveSet(np.asarray(curves if curves is not None else np.zeros((0, 4, 3)), float)),
+                     sq if sq is not None else SuperquadricSet())
+
+
+def _paths(svg_text):
+    doc = svgelements.SVG.parse(io.StringIO(svg_text), reify=True)
+    return {e.id: e for e in doc.elements() if isinstance(e, svgelements.Path)}, doc
+
+
+class TestCurveProjection:
+    def test_orthographic_is_exactly_the_projected_control_points(self):
+        s = random_strokes(n_curves=5, n_sq=0)
+        cam = orbit_cameras(s.frame, 1, width=512, projection="orthographic")[0]
+        svg = to_svg(draw(s, cam, DrawOptions(silhouettes=False)))
+        paths, _ = _paths(svg)
+        for n, control in enumerate(s.curves.control_points):
+            seg = [x for x in paths[f"curve-{n:03d}"] if isinstance(x, svgelements.CubicBezier)]
+            assert len(seg) == 1
+            got = np.array([[p.x, p.y] for p in (seg[0].start, seg[0].control1, seg[0].control2, seg[0].end)])
+            want, _ = cam.project(control)
+            assert np.abs(got - want).max() <= 0.005 + 1e-9
+
+    @pytest.mark.parametrize("seed", range(12))
+    def test_perspective_within_tolerance(self, seed):
+        rng = np.random.default_rng(seed)
+        # near cameras and long curves that span (and leave) the view are the hard cases
+        dist = rng.uniform(1.4, 5.0)
+        eye = rng.normal(size=3)
+        eye = dist * eye / np.linalg.norm(eye)
+        cam = _camera(eye, size=512, fov=rng.uniform(30, 90))
+        control = rng.uniform(-1.2, 1.2, (4, 3))
+        tol = 0.05
+        for a, b in depth_intervals(control, cam, 1e-3):
+            pieces, breaks = project_curve(control, cam, a, b, tol, return_breaks=True)
+            s = np.linspace(0, 1, 101)
+            for piece, t0, t1 in zip(pieces, breaks[:-1], breaks[1:]):
+                truth, _ = cam.project(bezier_points(control, t0 + s * (t1 - t0)))
+                assert np.linalg.norm(bezier_points(piece, s) - truth, axis=1).max() <= tol * 1.001
+
+    def test_curve_through_the_near_plane_is_clipped(self):
+        cam = _camera([3.0, 0, 0])
+        control = np.array([[-1.0, 0.1, 0.0], [1.0, 0.1, 0.0], [4.0, 0.1, 0.1], [6.0, 0.1, 0.2]])  # passes the eye
+        iv = depth_intervals(control, cam, 1e-3)
+        assert len(iv) == 1 and iv[0][0] == 0.0 and 0 < iv[0][1] < 1
+        z = (bezier_points(control, np.array([iv[0][1]])) @ cam.R.T + cam.t)[0, 2]
+        assert z == pytest.approx(1e-3, abs=1e-9)
+        d = draw(_strokes([control]), cam, DrawOptions(silhouettes=False))
+        pts = np.concatenate([p.reshape(-1, 2) for op in d.paths for p in op.subpaths])
+        assert np.isfinite(pts).all()
+
+
+class TestHiddenLines:
+    def _scene(self):
+        sphere = SuperquadricSet(np.array([[0.5, 0.5, 0.5]]), np.ones((1, 2)), np.array([I]), np.zeros((1, 3)))
+        behind = [[[-1.5, -1.0, 0.0], [-0.5, -1.0, 0.0], [0.5, -1.0, 0.0], [1.5, -1.0, 0.0]]]  # y = -1: behind from +y
+        return _strokes(behind, sphere), _camera([0, 4.0, 0.0])
+
+    @pytest.mark.parametrize("mode,vis_subpaths,hidden_paths", [("hide", 2, 0), ("dash", 2, 1), ("show", 1, 0)])
+    def test_curve_behind_a_sphere(self, mode, vis_subpaths, hidden_paths):
+        s, cam = self._scene()
+        d = draw(s, cam, DrawOptions(hidden=mode))
+        (curve,) = [p for p in d.paths if p.id == "curve-000"]
+        assert len(curve.subpaths) == vis_subpaths
+        assert len([p for p in d.layer("hidden") if p.id == "hidden-curve-000"]) == hidden_paths
+        if mode != "show":  # the gap is where the sphere covers the line: |x| < ~0.5·(5/4) projected
+            ends = [sp[-1, -1, 0] for sp in curve.subpaths] + [sp[0, 0, 0] for sp in curve.subpaths]
+            u_center, _ = cam.project(np.zeros((1, 3)))
+            gap = sorted(abs(e - u_center[0, 0]) for e in ends)[:2]
+            half_width = 0.5 * cam.fx / np.sqrt(4.0**2 - 0.25)
+            assert all(abs(g - half_width * 1.25) < 0.35 * half_width for g in gap)
+
+    def test_silhouette_behind_other_superquadric_hidden(self):
+        sq = SuperquadricSet(np.array([[0.5, 0.5, 0.5], [0.2, 0.2, 0.2]]), np.ones((2, 2)), np.array([I, I]),
+                             np.array([[0, 0, 0], [0, -0.9, 0]]))  # small ball right behind the big one
+        cam = _camera([0, 4.0, 0.0])
+        hide = draw(_strokes(None, sq), cam, DrawOptions(hidden="hide"))
+        dash = draw(_strokes(None, sq), cam, DrawOptions(hidden="dash"))
+        assert not any(p.id.startswith("silhouette-001") for p in hide.paths)
+        assert any(p.id.startswith("hidden-silhouette-001") for p in dash.layer("hidden"))
+
+
+def _reference(sq, cam):
+    """Mask boundary, and mask boundary ∪ depth discontinuities (visible interior occluding contours)."""
+    m = union_mask(sq, cam, samples=256)  # fine steps: grazing slivers of flat faces are thin
+    bd = m ^ ndimage.binary_erosion(m)
+    ids = np.full(m.shape, -1)
+    best = np.full(m.shape, np.inf)
+    for j in range(len(sq)):  # front-most superquadric per pixel, from each one's own first-hit depth
+        one = sq.subset([j])
+        mj = union_mask(one, cam, samples=256)
+        depth = _first_hit(one, cam, mj)
+        closer = mj & (depth < best)
+        best[closer], ids[closer] = depth[closer], j
+    finite = np.where(np.isfinite(best), best, 1e3)
+    jumps = ndimage.maximum_filter(finite, 3) - ndimage.minimum_filter(finite, 3) > 0.05
+    return bd, bd | (jumps & m)
+
+
+def _first_hit(sq, cam, mask):
+    from doodle.exporters.visibility import segments_blocked
+
+    o, d = cam.rays()
+    o, d = o[mask], d[mask]
+    lo = np.zeros(len(o))
+    hi = np.full(len(o), float(np.linalg.norm(sq.translation[0] - cam.center) + np.linalg.norm(sq.scale[0])))
+    for _ in range(12):  # bisection on "the segment [0, mid] already meets the superquadric"
+        mid = 0.5 * (lo + hi)
+        hit = segments_blocked(o, o + mid[:, None] * d, sq, 48)
+        hi, lo = np.where(hit, mid, hi), np.where(hit, lo, mid)
+    out = np.full(mask.shape, np.inf)
+    out[mask] = hi
+    return out
+
+
+def _silhouette_samples(drawing):
+    pts = []
+    for op in drawing.layer("silhouettes"):
+        for sp in op.subpaths:
+            for seg in sp:
+                n = int(4 * np.abs(np.diff(seg, axis=0)).sum()) + 8
+                pts.append(bezier_points(seg, np.linspace(0, 1, n)))
+    return np.concatenate(pts) if pts else np.zeros((0, 2))
+
+
+SHAPES = [(e1, e2) for e1 in (0.1, 0.5, 1.0, 1.5, 1.9) for e2 in (0.1, 1.0, 1.9)]
+QUICK = {(0.1, 0.1), (0.1, 1.9), (1.0, 1.0), (1.9, 0.1), (1.9, 1.9)}  # corners of the range + the ellipsoid
+SHAPE_PARAMS = [pytest.param(*s, marks=() if s in QUICK else pytest.mark.slow) for s in SHAPES]
+
+
+class TestSilhouetteAccuracy:
+    def _check(self, sq, cam, need_precision=0.98, need_recall=0.95):
+        bd, bd_all = _reference(sq, cam)
+        d = draw(_strokes(None, sq), cam, DrawOptions(curves=False))
+        pts = _silhouette_samples(d)
+        u = np.clip(np.floor(pts).astype(int), 0, cam.width - 1)
+        near_ref = ndimage.distance_transform_edt(~bd_all) <= 1.0 + 0.5  # pixel centres vs pixel-precise mask
+        precision = near_ref[u[:, 1], u[:, 0]].mean()
+        stroke = np.zeros(bd.shape, bool)
+        stroke[u[:, 1], u[:, 0]] = True
+        recall = (ndimage.distance_transform_edt(~stroke)[bd] <= 1.5).mean()
+        assert precision >= need_precision and recall >= need_recall, (precision, recall)
+
+    @pytest.mark.parametrize("e1,e2", SHAPE_PARAMS)
+    def test_single_superquadric(self, e1, e2):
+        q = np.array([0.95, 0.2, -0.1, 0.2])
+        sq = SuperquadricSet(np.array([[0.6, 0.4, 0.3]]), np.array([[e1, e2]]), np.array([q / np.linalg.norm(q)]),
+                             np.array([[0.05, -0.05, 0.0]]))
+        self._check(sq, _camera([2.6, 1.6, 1.4]))
+
+    @pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)])
+    def test_overlapping_unions(self, seed):
+        rng = np.random.default_rng(seed)
+        q = rng.normal(size=(3, 4))
+        sq = SuperquadricSet(rng.uniform(0.2, 0.5, (3, 3)), rng.uniform(0.1, 1.9, (3, 2)),
+                             q / np.linalg.norm(q, axis=1, keepdims=True), rng.uniform(-0.3, 0.3, (3, 3)))
+        self._check(sq, _camera([2.4, -1.9, 1.5]))
+
+
+class TestSvgDocument:
+    def test_structure_ids_and_metadata(self):
+        s = random_strokes(n_curves=4, n_sq=2)
+        svg = to_svg(draw(s, orbit_cameras(s.frame, 1, width=300, height=200)[0], DrawOptions(hidden="dash")), source="x.doodle")
+        assert 'viewBox="0,0,300,200"' in svg and 'width="300px"' in svg and 'height="200px"' in svg
+        for layer in ("curves", "silhouettes", "hidden"):
+            assert f'inkscape:label="{layer}"' in svg
+        assert 'inkscape:groupmode="layer"' in svg and 'stroke-linecap="round"' in svg and 'fill="none"' in svg
+        assert re.search(r'id="curve-00\d"', svg) and re.search(r'id="silhouette-00\d-\d"', svg)
+        assert "<metadata" in svg and "x.doodle" in svg and '"fx"' in svg
+        assert "<script" not in svg and "href" not in svg
+        paths, doc = _paths(svg)
+        assert doc.viewbox.width == 300 and len(paths) > 4
+
+    def test_deterministic_bytes(self):
+        s = random_strokes(n_curves=6, n_sq=3)
+        cam = orbit_cameras(s.frame, 3, width=256)[1]
+        assert to_svg(draw(s, cam)) == to_svg(draw(random_strokes(n_curves=6, n_sq=3), cam))
+
+    def test_cairosvg_renders_strokes(self):
+        s = random_strokes(n_curves=6, n_sq=3)
+        img = svg_to_array(to_svg(draw(s, orbit_cameras(s.frame, 1, width=256)[0])))
+        assert img.shape == (256, 256, 4) and (img[..., :3].mean(-1) < 128).sum() > 200
+
+
+class TestExportFunctionAndCli:
+    def test_export_views_writes_every_format(self, tmp_path):
+        s = random_strokes(n_curves=4, n_sq=1)
+        cams = orbit_cameras(s.frame, 3, width=128)
+        files = export_views(s, cams, tmp_path / "out", ExportOptions(png=True, pdf=True, sheet=tmp_path / "sheet.png"))
+        names = sorted(f.name for f in files)
+        assert names == sorted([f"view_{k:03d}.{e}" for k in range(3) for e in ("svg", "png", "pdf")] + ["sheet.png"])
+        assert Image.open(tmp_path / "sheet.png").size[0] >= 256
+        assert (tmp_path / "out" / "view_000.pdf").read_bytes()[:4] == b"%PDF"
+        assert not [p for p in (tmp_path / "out").iterdir() if p.name.startswith(".")]
+
+    def test_cli_36_views(self, tmp_path):
+        p = tmp_path / "s.doodle"
+        write_strokes(p, random_strokes(n_curves=3, n_sq=1))
+        r = CliRunner().invoke(cli, ["export", str(p), "--svg", "--views", "36", "-o", str(tmp_path / "o"), "--size", "64"])
+        assert r.exit_code == 0, r.output
+        assert len(list((tmp_path / "o").glob("view_*.svg"))) == 36
+
+    def test_cli_dataset_cameras(self, tmp_path, chair_dir):
+        p = tmp_path / "s.doodle"
+        write_strokes(p, random_strokes(n_curves=3, n_sq=0))
+        r = CliRunner().invoke(cli, ["export", str(p), "--cameras", str(chair_dir), "--split", "test", "-o", str(tmp_path / "o")])
+        assert r.exit_code == 0, r.output
+        assert len(list((tmp_path / "o").glob("*.svg"))) == 4
+
+    @pytest.mark.parametrize("case", ["views0", "inside", "empty", "corrupt", "size"])
+    def test_bad_input_one_line_exit_2_nothing_written(self, tmp_path, case):
+        s = random_strokes(n_curves=3, n_sq=1)
+        args = ["--views", "4"]
+        if case == "views0":
+            args = ["--views", "0"]
+        elif case == "inside":
+            s.frame.camera.distance = 0.01
+        elif case == "empty":
+            s = _strokes()
+        elif case == "size":
+            args = ["--size", "12xfoo"]
+        p = tmp_path / "s.doodle"
+        write_strokes(p, s)
+        if case == "corrupt":
+            p.write_text('{"format": "doodle-strokes"')
+        out = tmp_path / "o"
+        out.mkdir()
+        (out / "keep.svg").write_text("mine")
+        r = CliRunner().invoke(cli, ["export", str(p), "-o", str(out), *args])
+        assert r.exit_code == 2, r.output
+        assert "Traceback" not in r.output and r.output.strip().count("\n") == 0 and r.output.startswith("Error: ")
+        assert sorted(x.name for x in out.iterdir()) == ["keep.svg"] and (out / "keep.svg").read_text() == "mine"
