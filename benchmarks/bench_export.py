@@ -42,11 +42,13 @@ def main() -> None:
     for s in svgs:
         svg_to_png(s)
     print(f"36 PNGs at 512 px (cairosvg, from SVG): {time.perf_counter() - t0:5.2f} s")
-    with tempfile.TemporaryDirectory() as tmp:
-        for workers in (1,):
-            t0 = time.perf_counter()
-            export_views(strokes, cams, tmp, ExportOptions(svg=True, png=True))
-            print(f"export_views SVG+PNG, {workers} worker(s): {time.perf_counter() - t0:5.2f} s")
+    for workers in (1, 2):
+        for png in (False, True):
+            with tempfile.TemporaryDirectory() as tmp:
+                t0 = time.perf_counter()
+                export_views(strokes, cams, tmp, ExportOptions(svg=True, png=png, workers=workers))
+                what = "SVG+PNG" if png else "SVG    "
+                print(f"export_views 36 views {what}, {workers} process(es): {time.perf_counter() - t0:5.2f} s")
 
 
 if __name__ == "__main__":

@@ -260,3 +260,14 @@ class TestExportFunctionAndCli:
         assert r.exit_code == 2, r.output
         assert "Traceback" not in r.output and r.output.strip().count("\n") == 0 and r.output.startswith("Error: ")
         assert sorted(x.name for x in out.iterdir()) == ["keep.svg"] and (out / "keep.svg").read_text() == "mine"
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 90.0, 180.0, 270.0])
+def test_box_contour_closes_across_the_parameter_seam(azimuth):
+    """sin(π) is 1e-16, not 0: a box-like superquadric's contour must still close at ω = ±π."""
+    from doodle.exporters.silhouettes import contour_polylines
+
+    sq = SuperquadricSet(np.array([[0.45, 0.45, 0.06]]), np.array([[0.1, 0.1]]), np.array([I]), np.zeros((1, 3)))
+    a = np.radians(azimuth)
+    polys = contour_polylines(sq, _camera([3 * np.cos(a), 3 * np.sin(a), 1.7]))
+    assert len(polys) == 1 and np.allclose(polys[0][1][0], polys[0][1][-1])

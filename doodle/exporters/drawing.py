@@ -34,7 +34,7 @@ class DrawOptions:
     occlusion_margin: float = 0.03
     """Depth, as a fraction of the scene radius, that a point may lie under the union's surface and still
     count as visible (feature curves lie on the object the superquadrics only approximate)."""
-    silhouette_grid: tuple[int, int] = (72, 144)
+    silhouette_grid: tuple[int, int] = (48, 96)
 
 
 @dataclass

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import io
+import multiprocessing
 import os
 import shutil
 import tempfile
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from PIL import Image
@@ -32,6 +35,29 @@ class ExportOptions:
     """PNG/PDF/sheet background colour, or ``None`` for transparent PNGs. SVGs stay transparent."""
     draw: DrawOptions = field(default_factory=DrawOptions)
     source: str = ""
+    workers: int = 0
+    """Processes drawing views in parallel; 0 = one per CPU core (at most 8). Needs ``fork`` (Linux)."""
+
+
+def _render_view(strokes: StrokeSet, opt: ExportOptions, cam: Camera) -> tuple[str, bytes | None, bytes | None]:
+    """SVG text and, as asked, PNG and PDF bytes of one view (runs in worker processes)."""
+    svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source)
+    png = svg_to_png(svg, opt.background) if (opt.png or opt.sheet) else None
+    pdf = svg_to_pdf(svg) if opt.pdf else None
+    return svg, png, pdf
+
+
+def _render_all(strokes: StrokeSet, cameras: list[Camera], opt: ExportOptions):
+    """Yield :func:`_render_view` results in camera order, in parallel where it pays."""
+    workers = opt.workers or min(os.cpu_count() or 1, 8)
+    job = partial(_render_view, strokes, opt)
+    if workers <= 1 or len(cameras) < 4 or "fork" not in multiprocessing.get_all_start_methods():
+        yield from map(job, cameras)
+        return
+    # fork: workers start in milliseconds (spawn would re-import torch, ~1 s each). The exporters run numpy
+    # only, so a parent that used torch's thread pool before forking is safe.
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        yield from pool.map(job, cameras, chunksize=max(1, len(cameras) // (4 * workers)))
 
 
 def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,
@@ -83,19 +109,16 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     written: list[Path] = []
     sheet_images: list[Image.Image] = []
     try:
-        for k, cam in enumerate(cameras):
+        for k, (svg, png, pdf) in enumerate(_render_all(strokes, cameras, opt)):
             stem = f"view_{k:03d}"
-            svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source)
             if opt.svg:
                 (tmp / f"{stem}.svg").write_text(svg, encoding="utf-8")
-            if opt.png or opt.sheet:
-                png = svg_to_png(svg, opt.background)
-                if opt.png:
-                    (tmp / f"{stem}.png").write_bytes(png)
-                if opt.sheet:
-                    sheet_images.append(Image.open(io.BytesIO(png)))
-            if opt.pdf:
-                (tmp / f"{stem}.pdf").write_bytes(svg_to_pdf(svg))
+            if png is not None and opt.png:
+                (tmp / f"{stem}.png").write_bytes(png)
+            if png is not None and opt.sheet:
+                sheet_images.append(Image.open(io.BytesIO(png)))
+            if pdf is not None:
+                (tmp / f"{stem}.pdf").write_bytes(pdf)
             if progress:
                 progress(k + 1, len(cameras))
         if opt.sheet:

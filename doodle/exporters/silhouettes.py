@@ -89,14 +89,17 @@ def _refine(c: np.ndarray, g: np.ndarray, eta: np.ndarray, omega: np.ndarray, sq
     """Marching-squares vertices ``(K, 2)`` in grid units → ``(η, ω)`` with one regula-falsi step on the exact
     ``g`` along each vertex's grid edge: linear interpolation alone leaves the vertices a fraction of a pixel
     off the true contour, which the cubic fit would then chase."""
-    r0 = np.floor(c[:, 0]).astype(int).clip(0, len(eta) - 2)
-    c0 = np.floor(c[:, 1]).astype(int).clip(0, len(omega) - 2)
-    on_row_edge = (c[:, 0] - r0) > 1e-9  # the vertex moves along η (between rows r0, r0+1)
-    ra, ca = r0, c0
-    rb, cb = np.where(on_row_edge, r0 + 1, r0), np.where(on_row_edge, c0, c0 + 1)
+    on_row_edge = np.abs(c[:, 0] - np.round(c[:, 0])) > 1e-9  # the vertex moves along η (between two rows)
+    r_lo = np.floor(c[:, 0]).astype(int).clip(0, len(eta) - 2)
+    c_lo = np.floor(c[:, 1]).astype(int).clip(0, len(omega) - 2)
+    r_at, c_at = np.round(c[:, 0]).astype(int), np.round(c[:, 1]).astype(int)  # exact on the other axis
+    ra = np.where(on_row_edge, r_lo, r_at)
+    rb = np.where(on_row_edge, r_lo + 1, r_at)
+    ca = np.where(on_row_edge, c_at, c_lo)
+    cb = np.where(on_row_edge, c_at, c_lo + 1)
     ea, wa, eb, wb = eta[ra], omega[ca], eta[rb], omega[cb]
     ga, gb = g[ra, ca], g[rb, cb]
-    s = np.clip(np.where(on_row_edge, c[:, 0] - r0, c[:, 1] - c0), 0, 1)
+    s = np.clip(np.where(on_row_edge, c[:, 0] - ra, c[:, 1] - ca), 0, 1)
     for _ in range(2):
         e, w = ea + s * (eb - ea), wa + s * (wb - wa)
         pl, nl = surface_points(e, w, sq.scale[i:i + 1], sq.shape[i:i + 1])

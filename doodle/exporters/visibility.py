@@ -8,7 +8,6 @@ sampled, so cost scales with what the rays actually pass near.
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from ..cameras import Camera
 from ..strokes.model import SuperquadricSet
@@ -24,30 +23,28 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     d = ends - origins
     L = np.linalg.norm(d, axis=1)
     u = d / np.maximum(L, 1e-12)[:, None]
-    R = _rotations(sq)  # (M, 3, 3) local → world
+    R = quaternion_to_matrix(sq.rotation)  # (M, 3, 3) local → world
     s = (np.arange(samples) + 0.5) / samples
-    with torch.no_grad():
-        for j in range(len(sq)):
-            rad = float(np.linalg.norm(sq.scale[j]))
-            oc = sq.translation[j] - origins
-            b = np.einsum("ij,ij->i", oc, u)
-            h2 = rad * rad - (np.einsum("ij,ij->i", oc, oc) - b * b)
-            t0 = np.maximum(b - np.sqrt(np.maximum(h2, 0)), 0.0)
-            t1 = np.minimum(b + np.sqrt(np.maximum(h2, 0)), L)
-            idx = np.flatnonzero((h2 > 0) & (t1 > t0) & ~blocked)
-            if len(idx) == 0:
-                continue
-            t = t0[idx, None] + (t1 - t0)[idx, None] * s  # (K, S)
-            q = origins[idx, None, :] + t[..., None] * u[idx, None, :]
-            local = (q - sq.translation[j]) @ R[j]
-            lf = log_inside_outside(torch.from_numpy(local.reshape(1, -1, 3)), torch.from_numpy(sq.scale[j:j + 1]),
-                                    torch.from_numpy(sq.shape[j:j + 1])).numpy().reshape(len(idx), samples)
-            blocked[idx[(lf < 0).any(axis=1)]] = True
+    for j in range(len(sq)):
+        rad = float(np.linalg.norm(sq.scale[j]))
+        oc = sq.translation[j] - origins
+        b = np.einsum("ij,ij->i", oc, u)
+        h2 = rad * rad - (np.einsum("ij,ij->i", oc, oc) - b * b)
+        t0 = np.maximum(b - np.sqrt(np.maximum(h2, 0)), 0.0)
+        t1 = np.minimum(b + np.sqrt(np.maximum(h2, 0)), L)
+        idx = np.flatnonzero((h2 > 0) & (t1 > t0) & ~blocked)
+        if len(idx) == 0:
+            continue
+        t = t0[idx, None] + (t1 - t0)[idx, None] * s  # (K, S)
+        q = origins[idx, None, :] + t[..., None] * u[idx, None, :]
+        local = (q - sq.translation[j]) @ R[j]
+        lf = log_inside_outside(local.reshape(1, -1, 3), sq.scale[j:j + 1], sq.shape[j:j + 1]).reshape(len(idx), samples)
+        blocked[idx[(lf < 0).any(axis=1)]] = True
     return blocked
 
 
-def _rotations(sq: SuperquadricSet) -> np.ndarray:
-    return quaternion_to_matrix(sq.rotation)
+
+
 
 
 def ray_origins(camera: Camera, points: np.ndarray) -> np.ndarray:

@@ -68,7 +68,6 @@ def bezier_derivative(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     return _cat_last([s**2, 2 * t * s, t**2]) @ d
 
 
-@numpy_in_numpy_out
 def bezier_segment(control: torch.Tensor, t0: float, t1: float) -> torch.Tensor:
     """Control points of the piece of the curve between parameters ``t0`` and ``t1`` (exact).
 
@@ -94,9 +93,8 @@ def bezier_segment(control: torch.Tensor, t0: float, t1: float) -> torch.Tensor:
             pts = (1.0 - u) * pts[..., :-1, :] + u * pts[..., 1:, :]
         return pts[..., 0, :]
 
-    return torch.stack(
-        [blossom(t0, t0, t0), blossom(t0, t0, t1), blossom(t0, t1, t1), blossom(t1, t1, t1)], dim=-2
-    )
+    parts = [blossom(t0, t0, t0), blossom(t0, t0, t1), blossom(t0, t1, t1), blossom(t1, t1, t1)]
+    return torch.stack(parts, dim=-2) if isinstance(control, torch.Tensor) else np.stack(parts, axis=-2)
 
 
 @numpy_in_numpy_out
