@@ -1,0 +1,28 @@
+"""The objective interface. Objectives see strokes only through this API, so the weight-free default and
+the paper's perceptual objective share the stroke model, cameras and optimiser."""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import torch
+
+from ...strokes.model import SceneFrame
+from ..params import CurveParams, SuperquadricParams
+from ..targets import ViewTargets
+
+Terms = dict[str, torch.Tensor]
+"""Named loss terms of one step; ``"total"`` is what the optimiser minimises."""
+
+
+class Objective(Protocol):
+    name: str
+
+    def begin(self, targets: ViewTargets, frame: SceneFrame, generator: torch.Generator) -> None:
+        """Called before each stage with that stage's targets."""
+
+    def superquadric_terms(self, sq: SuperquadricParams, views: torch.Tensor) -> Terms:
+        """Loss of the superquadrics on the training views ``views`` (indices)."""
+
+    def curve_terms(self, curves: CurveParams, views: torch.Tensor) -> Terms:
+        """Loss of the curves (superquadrics frozen) on the training views ``views``."""

@@ -1,0 +1,93 @@
+"""One optimisation stage: Adam over a module's parameters with progress, best-state tracking, checkpoints
+and clean interruption (Ctrl-C ends the stage and keeps the best state)."""
+
+from __future__ import annotations
+
+import copy
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import torch
+from tqdm import tqdm
+
+from .objectives import Terms
+
+
+@dataclass
+class StageState:
+    """Everything needed to continue a stage later (stored in checkpoints)."""
+
+    step: int = 0
+    optimizer: dict | None = None
+    best: dict | None = None
+    best_loss: float = float("inf")
+    ema: float | None = None
+    history: list[dict[str, float]] = field(default_factory=list)
+
+
+def run_stage(
+    name: str,
+    module: torch.nn.Module,
+    terms_fn: Callable[[torch.Tensor], Terms],
+    iterations: int,
+    lr: float,
+    n_views: int,
+    views_per_step: int,
+    generator: torch.Generator,
+    state: StageState | None = None,
+    on_checkpoint: Callable[[StageState], None] | None = None,
+    checkpoint_every: int = 200,
+    on_preview: Callable[[int], None] | None = None,
+    preview_every: int = 0,
+    progress: bool = True,
+) -> tuple[StageState, bool]:
+    """Run (or continue) a stage; returns its state and whether it was interrupted.
+
+    At the end (or on interruption) ``module`` holds the best parameters seen, judged by an exponential
+    moving average of the total loss (single steps are too noisy with random views and pixels).
+    """
+    state = state or StageState()
+    opt = torch.optim.Adam(module.parameters(), lr=lr)
+    if state.optimizer:
+        opt.load_state_dict(state.optimizer)
+    interrupted = False
+    tty = sys.stderr.isatty()
+    bar = tqdm(total=iterations, initial=state.step, desc=name, unit="it", disable=not progress,
+               mininterval=0.3 if tty else 15.0, dynamic_ncols=True, leave=tty)
+    try:
+        while state.step < iterations:
+            views = torch.randperm(n_views, generator=generator, device=generator.device)[:views_per_step]
+            terms = terms_fn(views)
+            opt.zero_grad(set_to_none=True)
+            terms["total"].backward()
+            opt.step()
+            state.step += 1
+            values = {k: float(v.detach()) for k, v in terms.items()}
+            state.ema = values["total"] if state.ema is None else 0.95 * state.ema + 0.05 * values["total"]
+            if state.step % 10 == 0 or state.step == iterations:
+                state.history.append({"step": state.step, **values})
+                if state.ema < state.best_loss and state.step >= min(50, iterations // 2):
+                    state.best_loss = state.ema
+                    state.best = copy.deepcopy(module.state_dict())
+                bar.set_postfix({k: f"{v:.4f}" for k, v in values.items()}, refresh=False)
+            bar.update(1)
+            if on_checkpoint and state.step % checkpoint_every == 0 and state.step < iterations:
+                state.optimizer = opt.state_dict()
+                on_checkpoint(state)
+            if on_preview and preview_every and state.step % preview_every == 0:
+                on_preview(state.step)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+    state.optimizer = opt.state_dict()
+    if state.best is not None:
+        module.load_state_dict(state.best)
+    return state, interrupted
+
+
+def timed() -> Callable[[], float]:
+    start = time.perf_counter()
+    return lambda: time.perf_counter() - start

@@ -1,0 +1,388 @@
+"""``doodle fit``: posed images → stroke set. Stages (paper): superquadrics first, then curves with the
+superquadrics frozen; checkpoints allow resuming, Ctrl-C keeps the best state."""
+
+from __future__ import annotations
+
+
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import torch
+from scipy import ndimage
+
+from .. import __version__
+from ..atomic import atomic_path
+from ..errors import DoodleError
+from ..scenes import Scene
+from ..strokes.bezier import bezier_points
+from ..strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
+from .config import FitConfig
+from .init import farthest_points, initial_points
+from .objectives import make_objective
+from .optimize import StageState, run_stage
+from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
+from .targets import build_targets, working_scene
+
+CHECKPOINT_VERSION = 1
+
+
+@dataclass
+class FitResult:
+    strokes: StrokeSet
+    interrupted: bool = False
+    seconds: float = 0.0
+    log: list[str] = field(default_factory=list)
+    history: dict[str, list] = field(default_factory=dict)
+
+
+def _device(name: str) -> torch.device:
+    if name.startswith("cuda") and not torch.cuda.is_available():
+        raise DoodleError(f"--device {name}: CUDA is not available on this machine (use --device cpu)")
+    try:
+        return torch.device(name)
+    except RuntimeError as exc:
+        raise DoodleError(f"--device {name}: {exc}") from None
+
+
+def _validate(cfg: FitConfig, scene: Scene) -> None:
+    if cfg.curves < 0 or cfg.curves > 4096:
+        raise DoodleError(f"--curves must be in [0, 4096], got {cfg.curves}")
+    if cfg.superquadrics != "auto" and not 0 <= int(cfg.superquadrics) <= 64:
+        raise DoodleError(f"--superquadrics must be 'auto' or in [0, 64], got {cfg.superquadrics}")
+    if cfg.curves == 0 and cfg.superquadrics == 0:
+        raise DoodleError("nothing to fit: --curves 0 and --superquadrics 0")
+    if cfg.iterations < 0 or cfg.sq_iterations < 0:
+        raise DoodleError("--iterations must not be negative")
+    if not 16 <= cfg.size <= 4096:
+        raise DoodleError(f"--size must be in [16, 4096], got {cfg.size}")
+    if cfg.views_per_step < 1:
+        raise DoodleError(f"--views-per-step must be at least 1, got {cfg.views_per_step}")
+    if len(scene) < 2:
+        raise DoodleError(f"{scene.source}: need at least 2 views to fit, found {len(scene)}")
+
+
+def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3) -> list[np.ndarray]:
+    """Per camera, the pixels within ``grow_px`` of the union's visible silhouette as the exporter draws it."""
+    from ..exporters.drawing import DrawOptions, draw
+
+    strokes = StrokeSet(frame, CurveSet(), sq)
+    out = []
+    for cam in cameras:
+        img = np.zeros((cam.height, cam.width), bool)
+        d = draw(strokes, cam, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
+        for op in d.layer("silhouettes"):
+            for sp in op.subpaths:
+                for seg in sp:
+                    n = int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4
+                    p = np.floor(bezier_points(seg, np.linspace(0, 1, n))).astype(int)
+                    ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < cam.width) & (p[:, 1] < cam.height)
+                    img[p[ok, 1], p[ok, 0]] = True
+        out.append(ndimage.binary_dilation(img, iterations=grow_px) if grow_px else img)
+    return out
+
+
+def silhouette_scores(sq: SuperquadricSet, cameras, masks, size: int = 96, max_views: int = 12,
+                      tau: float = 1.5) -> tuple[float, float]:
+    """Mean mask IoU and boundary F-score (τ px) of the union's ray-cast silhouette against the masks.
+
+    Cameras are scaled to ``size`` px; at most ``max_views`` views, evenly picked. The boundary score is the
+    one that sees a missing neck between two balls, which barely changes the IoU.
+    """
+    from PIL import Image
+
+    from ..exporters.visibility import union_mask
+
+    step = max(1, len(cameras) // max_views)
+    ious, fs = [], []
+    for cam, mask in zip(cameras[::step], masks[::step]):
+        c = cam.scaled(size / max(cam.width, cam.height))
+        m = np.asarray(Image.fromarray(mask.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
+        u = union_mask(sq, c, samples=32) if len(sq) else np.zeros_like(m)
+        union = (u | m).sum()
+        ious.append((u & m).sum() / union if union else 1.0)
+        bu, bm = u ^ ndimage.binary_erosion(u), m ^ ndimage.binary_erosion(m)
+        if not bu.any() or not bm.any():
+            fs.append(0.0)
+            continue
+        p = (ndimage.distance_transform_edt(~bm)[bu] <= tau).mean()
+        r = (ndimage.distance_transform_edt(~bu)[bm] <= tau).mean()
+        fs.append(2 * p * r / (p + r) if p + r else 0.0)
+    return float(np.mean(ious)), float(np.mean(fs))
+
+
+def silhouette_iou(sq: SuperquadricSet, cameras, masks) -> float:
+    """Mean silhouette IoU of the union against the masks (see :func:`silhouette_scores`)."""
+    return silhouette_scores(sq, cameras, masks)[0]
+
+
+def prune_curves(curves: CurveSet, targets, max_distance_px: float, min_length_frac: float = 0.02
+                 ) -> tuple[CurveSet, np.ndarray]:
+    """Keep curves whose samples lie, in most views, within ``max_distance_px`` of a line and whose median
+    projected length is at least ``min_length_frac`` of the image size. Returns the kept set and mask."""
+    from .targets import lookup, project
+
+    if len(curves) == 0:
+        return curves, np.zeros(0, bool)
+    c = torch.tensor(curves.control_points, dtype=torch.float32, device=targets.R.device)
+    t = torch.linspace(0, 1, 24, device=c.device)[:, None]
+    basis = torch.cat([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], -1)
+    pts = torch.einsum("tk,nkd->ntd", basis, c)
+    N, T, _ = pts.shape
+    with torch.no_grad():
+        uv, _ = project(pts.reshape(-1, 3), targets.R, targets.t, targets.K)  # (V, N·T, 2)
+        dist = lookup(targets.line_dist, uv).reshape(-1, N, T).mean(-1)  # (V, N)
+        length = (uv.reshape(-1, N, T, 2).diff(dim=2).norm(dim=-1).sum(-1))  # (V, N)
+    med_dist = dist.median(dim=0).values.cpu().numpy()
+    med_len = length.median(dim=0).values.cpu().numpy()
+    keep = (med_dist <= max_distance_px) & (med_len >= min_length_frac * max(targets.width, targets.height))
+    return CurveSet(curves.control_points[keep], curves.width_px), keep
+
+
+def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg: FitConfig,
+                       sq_stage: Callable[..., bool], rng: np.random.Generator,
+                       device: torch.device, say: Callable[[str], None], min_gain: float = 0.01
+                       ) -> tuple[SuperquadricParams, bool]:
+    """Fit as few superquadrics as the silhouettes need.
+
+    Start with one; each round tries two moves — add one at the densest cluster of visual-hull voxels the
+    union does not cover, or split the largest one in two along its longest axis — fits briefly, and keeps
+    the better if the silhouette score (mean of mask IoU and boundary F-score) improves by ``min_gain``.
+    A final joint refinement follows. (Fitting many at once and pruning leaves a ball split into overlapping
+    pieces whose inner contours show in every view.)
+    """
+    from scipy.spatial import cKDTree
+
+    from ..strokes.superquadric import quaternion_to_matrix, union_log_inside_outside
+
+    def score(p: SuperquadricParams) -> float:
+        return float(np.mean(silhouette_scores(p.to_set(), work.cameras, work.masks)))
+
+    round_steps = max(20, cfg.sq_iterations // 5)
+    center = interior.mean(axis=0)
+    extent = np.clip(interior.std(axis=0) * 1.7, 0.05 * frame.radius, frame.radius)
+    params = SuperquadricParams.from_set(SuperquadricSet(extent[None], np.array([[0.9, 0.9]]),
+                                                         np.array([[1.0, 0, 0, 0]]), center[None])).to(device)
+    if sq_stage(params, round_steps):
+        return params, True
+    best = score(params)
+    while len(params) < cfg.max_superquadrics:
+        current = params.to_set()
+        candidates = []
+        lf = union_log_inside_outside(interior, current.scale, current.shape, current.rotation, current.translation)
+        uncovered = interior[lf > 0]
+        if len(uncovered) >= 0.02 * len(interior):
+            counts = cKDTree(uncovered).query_ball_point(uncovered, 0.15 * frame.radius, return_length=True)
+            seed = uncovered[int(np.argmax(counts))]
+            near = uncovered[np.linalg.norm(uncovered - seed, axis=1) < 0.3 * frame.radius]
+            ext = np.clip(near.std(axis=0) * 1.7, 0.05 * frame.radius, 0.35 * frame.radius)
+            candidates.append(SuperquadricSet(np.vstack([current.scale, ext]), np.vstack([current.shape, [0.9, 0.9]]),
+                                              np.vstack([current.rotation, [1.0, 0, 0, 0]]),
+                                              np.vstack([current.translation, near.mean(0)])))
+        big = int(np.argmax(current.scale.max(axis=1)))
+        axis = int(np.argmax(current.scale[big]))
+        R = quaternion_to_matrix(current.rotation[big])
+        offset = R[:, axis] * current.scale[big, axis] * 0.5
+        half = current.scale[big].copy()
+        half[axis] *= 0.5
+        keep = [k for k in range(len(current)) if k != big]
+        candidates.append(SuperquadricSet(
+            np.vstack([current.scale[keep], half, half]), np.vstack([current.shape[keep], current.shape[big], current.shape[big]]),
+            np.vstack([current.rotation[keep], current.rotation[big], current.rotation[big]]),
+            np.vstack([current.translation[keep], current.translation[big] + offset, current.translation[big] - offset])))
+        results = []
+        for cand in candidates:
+            trial = SuperquadricParams.from_set(cand).to(device)
+            if sq_stage(trial, round_steps):
+                return trial, True
+            results.append((score(trial), trial))
+        top, trial = max(results, key=lambda r: r[0])
+        if top - best < min_gain:
+            break
+        params, best = trial, top
+    say(f"superquadrics: {len(params)} explain the silhouettes (score {best:.3f}); refining")
+    return params, sq_stage(params, max(20, cfg.sq_iterations // 2), "superquadrics (refine)")
+
+
+def _save_checkpoint(path: Path, payload: dict) -> None:
+    with atomic_path(path) as tmp:
+        torch.save(payload, tmp)
+
+
+def load_checkpoint(path: Path) -> dict:
+    try:
+        ck = torch.load(path, map_location="cpu", weights_only=False)
+    except FileNotFoundError:
+        raise DoodleError(f"{path}: no checkpoint to resume from") from None
+    except Exception as exc:  # torch raises many types for corrupt files
+        raise DoodleError(f"{path}: not a readable checkpoint ({type(exc).__name__})") from None
+    if not isinstance(ck, dict) or ck.get("version") != CHECKPOINT_VERSION:
+        raise DoodleError(f"{path}: not a doodle checkpoint of version {CHECKPOINT_VERSION}")
+    return ck
+
+
+def _preview(strokes_fn: Callable[[], StrokeSet], cameras, out_dir: Path, tag: str) -> None:
+    from PIL import Image
+    import io
+
+    from ..exporters import DrawOptions, contact_sheet, draw, svg_to_png, to_svg
+
+    s = strokes_fn()
+    if s.is_empty:
+        return
+    cams = cameras[:: max(1, len(cameras) // 6)][:6]
+    ims = [Image.open(io.BytesIO(svg_to_png(to_svg(draw(s, c, DrawOptions(tolerance=0.5)), 0.5)))) for c in cams]
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out_dir / f"{tag}.png") as tmp:
+        contact_sheet(ims, cell=192).save(tmp, format="PNG")
+
+
+def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.PathLike | None = None,
+        resume: bool = False, log: Callable[[str], None] = print, progress: bool = True) -> FitResult:
+    """Fit a stroke set to a scene. See :class:`FitConfig` for the options."""
+    cfg = config or FitConfig()
+    _validate(cfg, scene)
+    device = _device(cfg.device)
+    clock_start = time.perf_counter()
+    messages: list[str] = []
+
+    def say(msg: str) -> None:
+        messages.append(msg)
+        log(msg)
+
+    ckpt_path = Path(checkpoint) if checkpoint else None
+    ck = load_checkpoint(ckpt_path) if (resume and ckpt_path) else None
+    if ck is not None:
+        for key in ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective"):
+            if ck["config"][key] != getattr(cfg, key):
+                raise DoodleError(f"{ckpt_path}: checkpoint was made with {key}={ck['config'][key]!r}, "
+                                  f"not {getattr(cfg, key)!r}; use the same options to resume")
+        say(f"resuming from {ckpt_path} ({ck['stage']} stage, step {ck['step']})")
+
+    work = working_scene(scene, cfg.size)
+    rng = np.random.default_rng(cfg.seed)
+    gen = torch.Generator(device=device)
+    gen.manual_seed(cfg.seed)
+    surface, interior, method = initial_points(work, cfg.init, rng)
+    say(f"initialisation: {dict(points='SfM points', hull='visual hull', bbox='random in the bounding box')[method]}"
+        f" ({len(surface)} candidate points)")
+    objective = make_objective(cfg.objective)
+    frame = scene.frame
+    wants_sq = cfg.superquadrics != 0 and work.masks is not None
+    if cfg.superquadrics != 0 and work.masks is None:
+        say("superquadrics: the scene has no masks, fitting curves only")
+    elif cfg.superquadrics == "auto" and ck is None:
+        from .targets import straightness
+
+        score = straightness(work)
+        if score >= cfg.straight_threshold:
+            wants_sq = False
+            say(f"superquadrics: none ({score:.0%} of the image lines are long straight edges: curves draw them)")
+        else:
+            say(f"superquadrics: fitting up to {cfg.max_superquadrics} ({score:.0%} of the image lines are straight)")
+    n_sq = cfg.max_superquadrics if cfg.superquadrics == "auto" else int(cfg.superquadrics)
+
+    sq_params = SuperquadricParams.from_set(initial_superquadrics(farthest_points(interior, n_sq, rng), frame.radius)) \
+        if wants_sq and n_sq and cfg.superquadrics != "auto" else (SuperquadricParams.from_set(initial_superquadrics(interior[:1], frame.radius)) if wants_sq else None)
+    curve_params = CurveParams(initial_curves(farthest_points(surface, max(cfg.curves, 1), rng), 0.15 * frame.radius, rng)[: cfg.curves])
+    stage_states = {"superquadrics": StageState(), "curves": StageState()}
+    stage = "superquadrics" if sq_params is not None else "curves"
+    final_sq: SuperquadricSet | None = None
+    if ck is not None:
+        stage = ck["stage"]
+        if ck.get("final_superquadrics") is not None:
+            final_sq = SuperquadricSet(*(np.asarray(a) for a in ck["final_superquadrics"]))
+        if ck.get("sq_params") is not None and sq_params is not None:
+            sq_params.load_state_dict(ck["sq_params"])
+        curve_params.load_state_dict(ck["curve_params"])
+        stage_states[stage] = ck["stage_state"]
+        gen.set_state(ck["generator"])
+    if sq_params is not None:
+        sq_params.to(device)
+    curve_params.to(device)
+
+    def current_strokes() -> StrokeSet:
+        sq = final_sq if final_sq is not None else (sq_params.to_set() if sq_params is not None else SuperquadricSet())
+        return _stroke_set(frame, scene, curve_params.to_set(cfg.width_px) if stage == "curves" else CurveSet(),
+                           sq, cfg, method, 0.0, messages)
+
+    def checkpointer(stage_name: str):
+        def save(state: StageState) -> None:
+            if ckpt_path is None:
+                return
+            _save_checkpoint(ckpt_path, {
+                "version": CHECKPOINT_VERSION, "config": cfg.to_dict(), "stage": stage_name, "step": state.step,
+                "stage_state": state, "sq_params": sq_params.state_dict() if sq_params is not None else None,
+                "curve_params": curve_params.state_dict(), "generator": gen.get_state(),
+                "final_superquadrics": None if final_sq is None else
+                [final_sq.scale, final_sq.shape, final_sq.rotation, final_sq.translation],
+            })
+        return save
+
+    def previewer(tag: str):
+        if cfg.preview_dir is None:
+            return None
+        return lambda step: _preview(current_strokes, work.cameras, Path(cfg.preview_dir), f"{tag}_{step:05d}")
+
+    interrupted = False
+    if stage == "superquadrics":
+        targets = build_targets(work, str(device))
+        objective.begin(targets, frame, gen)
+
+        def sq_stage(params: SuperquadricParams, steps: int, label: str = "superquadrics") -> bool:
+            objective.begin(targets, frame, gen)
+            _, stopped = run_stage(label, params, lambda v: objective.superquadric_terms(params, v), steps,
+                                   cfg.lr_superquadrics, targets.views, min(4, targets.views), gen, None, None,
+                                   cfg.checkpoint_every, previewer("superquadrics"), cfg.preview_every, progress)
+            return stopped
+
+        if cfg.superquadrics == "auto":
+            sq_params, interrupted = grow_superquadrics(interior, work, frame, cfg, sq_stage, rng, device, say)
+        else:
+            interrupted = sq_stage(sq_params, cfg.sq_iterations)
+        final_sq = sq_params.to_set()
+        say(f"superquadrics: {len(final_sq)} (training silhouette IoU "
+            f"{silhouette_iou(final_sq, work.cameras, work.masks):.3f})")
+        stage = "curves"
+        checkpointer("curves")(StageState())
+    if final_sq is None:
+        final_sq = SuperquadricSet()
+
+    if not interrupted and cfg.curves > 0:
+        exclude = silhouette_pixels(final_sq, frame, work.cameras) if len(final_sq) else None
+        targets = build_targets(work, str(device), exclude)
+        objective.begin(targets, frame, gen)
+        state, interrupted = run_stage(
+            "curves", curve_params, lambda v: objective.curve_terms(curve_params, v), cfg.iterations, cfg.lr_curves * frame.radius,
+            targets.views, min(cfg.views_per_step, targets.views), gen, stage_states["curves"] if ck is None or ck["stage"] == "curves" else StageState(),
+            checkpointer("curves"), cfg.checkpoint_every, previewer("curves"), cfg.preview_every, progress)
+    if interrupted:
+        say("interrupted: keeping the best state so far")
+        if ckpt_path is not None:
+            checkpointer(stage)(stage_states.get(stage, StageState()))
+    curves = curve_params.to_set(cfg.width_px) if cfg.curves > 0 else CurveSet(width_px=cfg.width_px)
+    if cfg.prune_curves and len(curves) and stage == "curves":
+        n_before = len(curves)
+        curves, _ = prune_curves(curves, targets, cfg.curve_max_distance_px)
+        say(f"curves: kept {len(curves)} of {n_before} (the others do not lie on lines across the views)")
+    seconds = time.perf_counter() - clock_start
+    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, messages)
+    if ckpt_path is not None and not interrupted:
+        ckpt_path.unlink(missing_ok=True)
+    return FitResult(strokes, interrupted, seconds, messages)
+
+
+def _stroke_set(frame: SceneFrame, scene: Scene, curves: CurveSet, sq: SuperquadricSet, cfg: FitConfig,
+                method: str, seconds: float, messages: list[str]) -> StrokeSet:
+    return StrokeSet(
+        frame=SceneFrame(frame.up.copy(), frame.center.copy(), frame.radius, DefaultCamera(**vars(frame.camera))),
+        curves=curves, superquadrics=sq,
+        provenance={"tool": f"doodle {__version__}", "source": scene.source, "objective": cfg.objective,
+                    "iterations": cfg.iterations, "superquadric_iterations": cfg.sq_iterations,
+                    "init": method, "seed": cfg.seed, "seconds": round(seconds, 2)},
+    )
+
+
