@@ -38,9 +38,9 @@ class DoodleGroup(click.Group):
             rv = super().main(*args, **kwargs)
         except click.exceptions.Exit as exc:
             sys.exit(exc.exit_code)
-        except click.Abort:
+        except (click.Abort, KeyboardInterrupt):
             click.echo("Aborted.", err=True)
-            sys.exit(1)
+            sys.exit(130)
         except click.ClickException as exc:  # UsageError, BadParameter, UserError: no usage banner, one line
             click.echo(f"Error: {exc.format_message()}".splitlines()[0], err=True)
             sys.exit(exc.exit_code)
@@ -172,6 +172,108 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
     with _progress(len(cams), "drawing") as bar:
         files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(1))
     click.echo(f"wrote {len(files)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
+
+
+def _superquadric_count(ctx: click.Context, param: click.Parameter, value: str) -> Any:
+    if value == "auto":
+        return value
+    try:
+        n = int(value)
+    except ValueError:
+        n = -1
+    if not 0 <= n <= 64:
+        raise click.BadParameter(f"expected 'auto' or a number in [0, 64], got {value!r}")
+    return n
+
+
+def _log(msg: str) -> None:
+    click.echo(msg, err=True)
+
+
+@cli.command()
+@click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
+@click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Stroke file to write (.doodle JSON, .doodleb binary).")
+@click.option("--curves", type=int, default=32, show_default=True, help="Number of Bézier curves (a maximum: "
+              "curves that do not lie on lines are dropped).")
+@click.option("--superquadrics", default="auto", show_default=True, callback=_superquadric_count,
+              help="Number of superquadrics, or 'auto' (chosen from the data).")
+@click.option("--iterations", type=int, default=1500, show_default=True, help="Steps of the curve stage.")
+@click.option("--sq-iterations", type=int, default=400, show_default=True, help="Steps of the superquadric stage.")
+@click.option("--size", type=int, default=256, show_default=True, help="Working resolution (larger image side, px).")
+@click.option("--views-per-step", type=int, default=8, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--device", default="cpu", show_default=True, help="torch device: cpu, cuda, cuda:1 ...")
+@click.option("--split", default="train", show_default=True, help="Dataset split to fit (NeRF-synthetic).")
+@click.option("--init", "init", type=click.Choice(["auto", "points", "hull", "bbox"]), default="auto", show_default=True,
+              help="Initial stroke placement: SfM points, visual hull from masks, or random in the bounding box.")
+@click.option("--objective", default="edges", show_default=True, help="Objective (edges: weight-free default).")
+@click.option("--preview", "preview_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Write contact sheets of the current strokes here every --preview-every steps.")
+@click.option("--preview-every", type=int, default=250, show_default=True)
+@click.option("--checkpoint-every", type=int, default=200, show_default=True)
+@click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written while fitting.")
+def fit(scene_dir: Path, out_path: Path, curves: int, superquadrics: Any, iterations: int, sq_iterations: int,
+        size: int, views_per_step: int, seed: int, device: str, split: str, init: str, objective: str,
+        preview_dir: Path | None, preview_every: int, checkpoint_every: int, resume: bool) -> None:
+    """Fit strokes to the posed images in SCENE (NeRF-synthetic, nerfstudio, COLMAP, or plain photos).
+
+    Ctrl-C stops early and still writes the best strokes so far; --resume continues from the checkpoint.
+    """
+    from .fit import FitConfig
+    from .fit import fit as fit_scene
+    from .scenes import load_scene_at_size
+    from .strokes import write_strokes
+
+    cfg = FitConfig(curves=curves, superquadrics=superquadrics, iterations=iterations, sq_iterations=sq_iterations,
+                    size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
+                    init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
+    scene = load_scene_at_size(scene_dir, split, size)
+    _log(f"loaded {len(scene)} views from {scene_dir}")
+    ckpt = out_path.with_name(out_path.name + ".ckpt")
+    result = fit_scene(scene, cfg, checkpoint=ckpt, resume=resume, log=_log, progress=True)
+    n = write_strokes(out_path, result.strokes)
+    s = result.strokes
+    msg = f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {n} bytes, {result.seconds:.0f} s"
+    if result.interrupted:
+        msg += f" (interrupted; continue with --resume, checkpoint {ckpt})"
+    click.echo(msg)
+
+
+@cli.command(name="eval")
+@click.argument("strokes", type=click.Path(path_type=Path))
+@click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
+@click.option("--split", default="test", show_default=True, help="Held-out split to measure on.")
+@click.option("--tau", type=float, default=2.0, show_default=True, callback=_positive_float, help="Distance threshold (px).")
+@click.option("--size", type=int, default=256, show_default=True, help="Evaluation resolution (px).")
+@click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path),
+              help="Also write the metrics (with per-view rows) as JSON here ('-' for stdout only).")
+def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, json_out: Path | None) -> None:
+    """Measure STROKES on SCENE's held-out views: line precision, silhouette recall, F-score, IoU, size."""
+    from .atomic import write_text
+    from .evaluate import evaluate, format_metrics
+    from .scenes import load_scene_at_size
+    from .strokes import read_strokes
+
+    s = read_strokes(strokes)
+    metrics = evaluate(s, load_scene_at_size(scene_dir, split, size), tau=tau, size=size)
+    if json_out is not None and str(json_out) == "-":
+        click.echo(json.dumps(metrics, indent=1))
+        return
+    click.echo(format_metrics(metrics))
+    if json_out is not None:
+        write_text(json_out, json.dumps(metrics, indent=1))
+
+
+@cli.command()
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("doodle-demo"),
+              show_default=True, help="Folder for everything the demo makes.")
+@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp"]), default="snowman", show_default=True)
+def demo(out_dir: Path, scene: str) -> None:
+    """Run the whole pipeline on a built-in procedural scene: render, fit, export, animate, evaluate."""
+    from .demo import run_demo
+
+    run_demo(out_dir, scene, log=click.echo)
 
 
 def _progress(total: int, desc: str):

@@ -54,8 +54,11 @@ def run_stage(
         opt.load_state_dict(state.optimizer)
     interrupted = False
     tty = sys.stderr.isatty()
-    bar = tqdm(total=iterations, initial=state.step, desc=name, unit="it", disable=not progress,
-               mininterval=0.3 if tty else 15.0, dynamic_ncols=True, leave=tty)
+    # A live bar on terminals; in logs (CI, pipes) a plain line every 10 % instead of carriage returns.
+    bar = tqdm(total=iterations, initial=state.step, desc=name, unit="it", disable=not (progress and tty),
+               mininterval=0.3, dynamic_ncols=True, leave=False)
+    log_every = max(1, iterations // 10) if progress and not tty else 0
+    started, start_step = time.perf_counter(), state.step
     try:
         while state.step < iterations:
             views = torch.randperm(n_views, generator=generator, device=generator.device)[:views_per_step]
@@ -73,6 +76,12 @@ def run_stage(
                     state.best = copy.deepcopy(module.state_dict())
                 bar.set_postfix({k: f"{v:.4f}" for k, v in values.items()}, refresh=False)
             bar.update(1)
+            if log_every and (state.step % log_every == 0 or state.step == iterations):
+                rate = (state.step - start_step) / max(time.perf_counter() - started, 1e-9)
+                eta = (iterations - state.step) / max(rate, 1e-9)
+                terms_s = " ".join(f"{k} {v:.4f}" for k, v in values.items())
+                print(f"{name} {state.step}/{iterations} {rate:.1f} it/s {terms_s} eta {eta:.0f} s",
+                      file=sys.stderr, flush=True)
             if on_checkpoint and state.step % checkpoint_every == 0 and state.step < iterations:
                 state.optimizer = opt.state_dict()
                 on_checkpoint(state)
@@ -88,6 +97,3 @@ def run_stage(
     return state, interrupted
 
 
-def timed() -> Callable[[], float]:
-    start = time.perf_counter()
-    return lambda: time.perf_counter() - start

@@ -25,7 +25,11 @@ def detect_format(root: str | Path) -> str:
         return "nerfstudio"
     if find_model_dir(root) is not None:
         return "colmap"
-    raise SceneError(f"{root}: no transforms_train.json, transforms.json or COLMAP model found")
+    from .photos import photo_files
+
+    if len(photo_files(root)) >= 3:
+        return "photos"
+    raise SceneError(f"{root}: no transforms_train.json, transforms.json, COLMAP model or photos found")
 
 
 def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -> Scene:
@@ -35,7 +39,21 @@ def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -
         return load_nerf_synthetic(root, split, downscale)
     if fmt == "nerfstudio":
         return load_nerfstudio(root, downscale)
+    if fmt == "photos":
+        from .photos import load_photos
+
+        return load_photos(root, downscale)
     return load_colmap(root, downscale=downscale)
+
+
+def load_scene_at_size(root: str | Path, split: str = "train", size: int | None = None) -> Scene:
+    """Load a scene with images downscaled so the larger side is about ``size`` px (never enlarged);
+    saves memory and time for large photos (Lego: 100 × 800² → 256²)."""
+    if size is None or detect_format(root) == "photos":
+        return load_scene(root, split)
+    cams = load_cameras(root, split)
+    largest = max(max(c.width, c.height) for c in cams)
+    return load_scene(root, split, downscale=max(1.0, largest / size))
 
 
 def load_cameras(root: str | Path, split: str = "test") -> list:
@@ -46,5 +64,5 @@ def load_cameras(root: str | Path, split: str = "test") -> list:
     return load_scene(root, split).cameras
 
 
-__all__ = ["load_cameras", "Scene", "SceneError", "detect_format", "estimate_frame", "load_colmap", "load_nerf_synthetic",
+__all__ = ["load_cameras", "load_scene_at_size", "Scene", "SceneError", "detect_format", "estimate_frame", "load_colmap", "load_nerf_synthetic",
            "load_nerfstudio", "load_scene"]

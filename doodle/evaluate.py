@@ -1,0 +1,67 @@
+"""``doodle eval``: weight-free metrics of a sketch on held-out cameras (DESIGN.md "Measuring a sketch").
+
+For each camera, the exported SVG is rasterised; the reference line map is the mask boundary plus the
+image's strong edges. Line precision = share of stroke pixels within τ px of a reference line; silhouette
+recall = share of mask-boundary pixels within τ px of a stroke; F = their harmonic mean. Also the
+superquadric union's silhouette IoU against the mask and the stroke file's size in both encodings.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from .exporters import DrawOptions, draw, svg_to_array, to_svg, union_mask
+from .fit.targets import line_map, working_scene
+from .scenes import Scene
+from .strokes import StrokeSet, dumps
+from .strokes.binary import encode
+
+
+def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256) -> dict[str, Any]:
+    """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px)."""
+    work = working_scene(scene, size)
+    rows = []
+    for k, (cam, img) in enumerate(zip(work.cameras, work.images)):
+        mask = work.masks[k] if work.masks is not None else None
+        svg = to_svg(draw(strokes, cam, DrawOptions(tolerance=0.25)), 0.25)
+        stroke = svg_to_array(svg, "white")[..., :3].mean(-1) < 160
+        ref = line_map(img, mask)
+        row: dict[str, Any] = {"view": cam.name or str(k)}
+        row["line_precision"] = float((ndimage.distance_transform_edt(~ref)[stroke] <= tau).mean()) if stroke.any() else 0.0
+        if mask is not None:
+            boundary = mask ^ ndimage.binary_erosion(mask)
+            row["silhouette_recall"] = float((ndimage.distance_transform_edt(~stroke)[boundary] <= tau).mean()) \
+                if stroke.any() and boundary.any() else 0.0
+            if len(strokes.superquadrics):
+                u = union_mask(strokes.superquadrics, cam)
+                row["silhouette_iou"] = float((u & mask).sum() / max((u | mask).sum(), 1))
+        rows.append(row)
+    out: dict[str, Any] = {"views": len(rows), "tau_px": tau, "size_px": size}
+    for key in ("line_precision", "silhouette_recall", "silhouette_iou"):
+        vals = [r[key] for r in rows if key in r]
+        out[key] = round(float(np.mean(vals)), 4) if vals else None
+    p, r = out["line_precision"], out["silhouette_recall"]
+    out["f_score"] = round(2 * p * r / (p + r), 4) if p is not None and r is not None and p + r > 0 else None
+    out["curves"], out["superquadrics"] = len(strokes.curves), len(strokes.superquadrics)
+    out["bytes_json"], out["bytes_binary"] = len(dumps(strokes).encode()), len(encode(strokes))
+    out["per_view"] = rows
+    return out
+
+
+def format_metrics(m: dict[str, Any]) -> str:
+    """A small text table of :func:`evaluate`'s result."""
+    def f(v: Any) -> str:
+        return "—" if v is None else f"{v:.3f}"
+
+    return "\n".join([
+        f"views                 {m['views']} (τ = {m['tau_px']:g} px at {m['size_px']} px)",
+        f"line precision        {f(m['line_precision'])}",
+        f"silhouette recall     {f(m['silhouette_recall'])}",
+        f"F-score               {f(m['f_score'])}",
+        f"superquadric IoU      {f(m['silhouette_iou'])}",
+        f"strokes               {m['curves']} curves, {m['superquadrics']} superquadrics",
+        f"file size             {m['bytes_json']} B JSON, {m['bytes_binary']} B binary",
+    ])

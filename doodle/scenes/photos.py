@@ -1,0 +1,65 @@
+"""Plain photos: structure-from-motion with pycolmap (SIFT, exhaustive matching, incremental mapping),
+then the COLMAP parser. The model is cached in ``PHOTOS/.doodle-sfm`` and reused."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Callable
+
+from ..errors import SceneError
+from .colmap import load_colmap
+from .scene import Scene
+
+IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
+
+
+def photo_files(root: Path) -> list[Path]:
+    return sorted(p for p in root.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+
+
+def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
+    """Pose the photos in ``root``; returns the folder holding the COLMAP model (``cameras.bin`` …).
+
+    Raises:
+        SceneError: when fewer than 3 photos are given or no reconstruction registers at least 3 of them.
+    """
+    import pycolmap
+
+    root = Path(root)
+    photos = photo_files(root)
+    if len(photos) < 3:
+        raise SceneError(f"{root}: structure-from-motion needs at least 3 photos, found {len(photos)}")
+    work = root / ".doodle-sfm"
+    model = work / "model"
+    if (model / "cameras.bin").exists():
+        log(f"structure-from-motion: reusing {model}")
+        return model
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    db = work / "database.db"
+    log(f"structure-from-motion (pycolmap): {len(photos)} photos; extracting and matching SIFT features")
+    try:
+        pycolmap.extract_features(db, root, image_names=[p.name for p in photos])
+        pycolmap.match_exhaustive(db)
+        recs = pycolmap.incremental_mapping(db, root, work / "sparse")
+    except Exception as exc:  # pycolmap reports failures as RuntimeError/ValueError with long texts
+        raise SceneError(f"{root}: structure-from-motion failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    best = max(recs.values(), key=lambda r: r.num_reg_images(), default=None)
+    if best is None or best.num_reg_images() < 3:
+        n = 0 if best is None else best.num_reg_images()
+        raise SceneError(f"{root}: structure-from-motion failed: registered {n} of {len(photos)} photos "
+                         f"(photos need overlap and texture; or give poses as a COLMAP model)")
+    model.mkdir(parents=True, exist_ok=True)
+    best.write(str(model))
+    log(f"structure-from-motion: registered {best.num_reg_images()} of {len(photos)} photos, "
+        f"{best.num_points3D()} points")
+    return model
+
+
+def load_photos(root: str | Path, downscale: float = 1.0, log: Callable[[str], None] = print) -> Scene:
+    """Run (or reuse) SfM on a folder of photos and load the result; ``root/masks`` is used when present."""
+    root = Path(root)
+    model = run_sfm(root, log)
+    return load_colmap(model, images_dir=root, masks_dir=root / "masks" if (root / "masks").is_dir() else None,
+                       downscale=downscale)
