@@ -127,14 +127,33 @@ def view_options(f):
         click.option("--projection", type=click.Choice(["persp", "ortho"]), default="persp", show_default=True),
         click.option("--tolerance", type=float, default=0.05, show_default=True, callback=_positive_float,
                      help="Max distance in px between drawn cubics and the exact projection."),
-        click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default="hide", show_default=True,
-                     help="Parts behind the superquadric volume."),
+        click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
+                     help="Parts behind the superquadric volume [default: the style's, else hide]."),
         click.option("--no-silhouettes", is_flag=True, help="Leave out superquadric silhouettes."),
         click.option("--no-curves", is_flag=True, help="Leave out the Bézier curves."),
     ]
     for opt in reversed(opts):
         f = opt(f)
     return f
+
+
+def style_options(f):
+    """--style and --no-filters, shared by export and animate."""
+    f = click.option("--no-filters", is_flag=True, help="No SVG filter effects (for tools that ignore them).")(f)
+    return click.option("--style", default="ink", show_default=True,
+                        help="Built-in style name (see `doodle styles`) or a .toml/.json style file.")(f)
+
+
+def _background(value: str | None) -> str | None:
+    if value is None:
+        return ""
+    if value == "transparent":
+        return None
+    import re
+
+    if not re.fullmatch(r"#[0-9a-fA-F]{6}|[a-z]+", value):
+        raise click.BadParameter(f"expected #rrggbb, a colour name or 'transparent', got {value!r}", param_hint="--background")
+    return value
 
 
 def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool, no_curves: bool):
@@ -151,12 +170,13 @@ def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool, no_curves
 @click.option("--png", is_flag=True, help="Also write PNG files (cairosvg).")
 @click.option("--pdf", is_flag=True, help="Also write PDF files (cairosvg).")
 @click.option("--sheet", type=click.Path(dir_okay=False, path_type=Path), help="Write all views in one grid PNG.")
-@click.option("--background", default="white", show_default=True,
-              help="PNG/PDF background: a colour or 'transparent'.")
+@click.option("--background", default=None,
+              help="Background colour (#rrggbb) or 'transparent' (default: the style's).")
+@style_options
 @view_options
 def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: bool, sheet: Path | None,
-           background: str, views: int, scene_dir: Path | None, split: str, size, projection: str, tolerance: float,
-           hidden: str, no_silhouettes: bool, no_curves: bool) -> None:
+           background: str | None, style: str, no_filters: bool, views: int, scene_dir: Path | None, split: str, size,
+           projection: str, tolerance: float, hidden: str | None, no_silhouettes: bool, no_curves: bool) -> None:
     """Draw STROKES for orbit (or dataset) cameras as exact SVG paths, PNG, PDF and a contact sheet."""
     from .exporters import ExportOptions, export_cameras, export_views
     from .strokes import read_strokes
@@ -165,13 +185,73 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
         raise click.BadParameter(f"must be at least 1, got {views}", param_hint="--views")
     s = read_strokes(strokes)
     cams = export_cameras(s, views, scene_dir, split, size, "orthographic" if projection == "ortho" else "perspective")
+    from .styles import load_style
+
+    st = load_style(style)
     svg = want_svg if want_svg is not None else not (png or pdf)
-    opts = ExportOptions(svg=svg, png=png, pdf=pdf, sheet=sheet,
-                         background=None if background == "transparent" else background,
-                         draw=_draw_options(tolerance, hidden, no_silhouettes, no_curves), source=str(strokes))
+    opts = ExportOptions(svg=svg, png=png, pdf=pdf, sheet=sheet, background=_background(background), style=st,
+                         filters=not no_filters, source=str(strokes),
+                         draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves))
     with _progress(len(cams), "drawing") as bar:
         files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(1))
     click.echo(f"wrote {len(files)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
+
+
+@cli.command()
+@click.argument("strokes", type=click.Path(path_type=Path))
+@click.option("--gif", type=click.Path(dir_okay=False, path_type=Path), help="Write an animated GIF.")
+@click.option("--apng", type=click.Path(dir_okay=False, path_type=Path), help="Write an animated PNG.")
+@click.option("--mp4", type=click.Path(dir_okay=False, path_type=Path), help="Write an MP4 (needs imageio-ffmpeg).")
+@click.option("--svg", type=click.Path(dir_okay=False, path_type=Path), help="Write one animated SVG (plays in browsers).")
+@click.option("--frames", type=int, default=36, show_default=True)
+@click.option("--fps", type=float, default=12.0, show_default=True)
+@click.option("--size", type=int, default=512, show_default=True, help="Frame size in pixels (square).")
+@click.option("--elevation", type=float, default=None, help="Camera elevation in degrees (default: recorded).")
+@click.option("--bob", type=float, default=0.0, show_default=True, help="Gentle up-down motion, degrees.")
+@click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
+              help="Parts behind the superquadric volume [default: the style's, else hide].")
+@style_options
+def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None, svg: Path | None, frames: int,
+            fps: float, size: int, elevation: float | None, bob: float, hidden: str | None, style: str,
+            no_filters: bool) -> None:
+    """Render a seamless turntable of STROKES as GIF, APNG, MP4 and/or animated SVG."""
+    from .animate import AnimateOptions, animate_many
+    from .strokes import read_strokes
+
+    outputs = {k: v for k, v in (("gif", gif), ("apng", apng), ("mp4", mp4), ("svg", svg)) if v is not None}
+    if not outputs:
+        raise click.UsageError("choose at least one of --gif, --apng, --mp4, --svg")
+    if frames < 1:
+        raise click.BadParameter(f"must be at least 1, got {frames}", param_hint="--frames")
+    from .styles import load_style
+
+    s = read_strokes(strokes)
+    opt = AnimateOptions(frames=frames, fps=fps, size=size, style=load_style(style), elevation_deg=elevation,
+                         bob_deg=bob, hidden=hidden or "", filters=not no_filters)
+    with _progress(frames, "frames") as bar:
+        written = animate_many(s, outputs, opt, progress=lambda k, n: bar.update(1))
+    click.echo("wrote " + ", ".join(str(p) for p in written))
+
+
+@cli.command()
+@click.option("--preview", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write a sheet with every style drawn on one view.")
+@click.option("--strokes", "strokes_path", type=click.Path(path_type=Path),
+              help="Stroke file for the preview (default: a built-in sample).")
+@click.option("--style", "extra", multiple=True, help="Also preview these style files.")
+def styles(preview: Path | None, strokes_path: Path | None, extra: tuple[str, ...]) -> None:
+    """List the built-in styles; optionally write a preview sheet of all of them."""
+    from .styles import builtin_names, load_style
+
+    for name in builtin_names():
+        click.echo(f"{name:10s} {load_style(name).description}")
+    if preview:
+        from .styles.preview import preview_sheet
+        from .strokes import read_strokes
+
+        s = read_strokes(strokes_path) if strokes_path else None
+        preview_sheet(preview, s, [*builtin_names(), *extra])
+        click.echo(f"wrote {preview}")
 
 
 def _superquadric_count(ctx: click.Context, param: click.Parameter, value: str) -> Any:

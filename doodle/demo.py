@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from .animate import AnimateOptions, animate
 from .atomic import write_text
 from .evaluate import evaluate
 from .exporters import ExportOptions, export_cameras, export_views
@@ -38,15 +39,10 @@ def run_demo(out_dir: str | Path = "doodle-demo", scene: str = DEMO_SCENE, confi
     files = export_views(result.strokes, cams, out / "views", ExportOptions(sheet=out / "sheet.png", source=str(strokes_path)))
     log(f"3/4 exported {len(files) - 1} SVG views → {out / 'views'} and a contact sheet → {out / 'sheet.png'}")
     paths = {"scene": scene_dir, "strokes": strokes_path, "views": out / "views", "sheet": out / "sheet.png"}
-    try:
-        from .animate import AnimateOptions, animate
-
-        gif = out / "turntable.gif"
-        animate(result.strokes, gif, AnimateOptions(frames=36, size=384))
-        paths["gif"] = gif
-        log(f"    turntable animation → {gif}")
-    except ImportError:  # animation module not present in this build
-        pass
+    gif = out / "turntable.gif"
+    animate(result.strokes, gif, AnimateOptions(frames=36, size=384))
+    paths["gif"] = gif
+    log(f"    turntable animation → {gif}")
     metrics = evaluate(result.strokes, load_scene(scene_dir, split="test"))
     write_text(out / "metrics.json", json.dumps({k: v for k, v in metrics.items() if k != "per_view"}, indent=1))
     paths["metrics"] = out / "metrics.json"

@@ -209,6 +209,7 @@ def test_demo_short(tmp_path):
                      log=lambda m: None, progress=False)
     assert len(list(paths["views"].glob("view_*.svg"))) == 36
     assert Image.open(paths["sheet"]).size[0] > 500
+    assert Image.open(paths["gif"]).n_frames == 36
     m = json.loads(paths["metrics"].read_text())
     assert 0 <= m["line_precision"] <= 1
 

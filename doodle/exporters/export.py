@@ -17,6 +17,7 @@ from PIL import Image
 from ..cameras import Camera, Projection, orbit_cameras
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
+from ..styles import Style
 from .drawing import DrawOptions, check_camera, draw
 from .raster import contact_sheet, svg_to_pdf, svg_to_png
 from .svg import to_svg
@@ -31,8 +32,12 @@ class ExportOptions:
     pdf: bool = False
     sheet: Path | None = None
     """Also write all views in one grid image here."""
-    background: str | None = "white"
-    """PNG/PDF/sheet background colour, or ``None`` for transparent PNGs. SVGs stay transparent."""
+    background: str | None = ""
+    """Background: ``""`` = the style's, ``None`` = transparent, or a hex colour."""
+    style: Style | None = None
+    """Brush style (default: built-in ``ink``)."""
+    filters: bool = True
+    """Allow SVG filter effects of the style."""
     draw: DrawOptions = field(default_factory=DrawOptions)
     source: str = ""
     workers: int = 0
@@ -41,23 +46,32 @@ class ExportOptions:
 
 def _render_view(strokes: StrokeSet, opt: ExportOptions, cam: Camera) -> tuple[str, bytes | None, bytes | None]:
     """SVG text and, as asked, PNG and PDF bytes of one view (runs in worker processes)."""
-    svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source)
-    png = svg_to_png(svg, opt.background) if (opt.png or opt.sheet) else None
+    svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source, opt.background, style=opt.style,
+                 filters=opt.filters)
+    png = svg_to_png(svg, None) if (opt.png or opt.sheet) else None
     pdf = svg_to_pdf(svg) if opt.pdf else None
     return svg, png, pdf
 
 
-def _render_all(strokes: StrokeSet, cameras: list[Camera], opt: ExportOptions):
-    """Yield :func:`_render_view` results in camera order, in parallel where it pays."""
-    workers = opt.workers or min(os.cpu_count() or 1, 8)
-    job = partial(_render_view, strokes, opt)
+def render_many(job, cameras: list[Camera], workers: int = 0):
+    """Yield ``job(camera)`` in camera order, in parallel processes where it pays."""
+    workers = workers or min(os.cpu_count() or 1, 8)
     if workers <= 1 or len(cameras) < 4 or "fork" not in multiprocessing.get_all_start_methods():
         yield from map(job, cameras)
         return
     # fork: workers start in milliseconds (spawn would re-import torch, ~1 s each). The exporters run numpy
     # only, so a parent that used torch's thread pool before forking is safe.
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        yield from pool.map(job, cameras, chunksize=max(1, len(cameras) // (4 * workers)))
+        yield from pool.map(_call, [(job, c) for c in cameras], chunksize=max(1, len(cameras) // (4 * workers)))
+
+
+def _call(args):
+    job, cam = args
+    return job(cam)
+
+
+def _render_all(strokes: StrokeSet, cameras: list[Camera], opt: ExportOptions):
+    yield from render_many(partial(_render_view, strokes, opt), cameras, opt.workers)
 
 
 def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,

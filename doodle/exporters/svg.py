@@ -9,17 +9,10 @@ from typing import Any
 import numpy as np
 import svgwrite
 
+from ..styles import Style, load_style, styled_path_data
 from .drawing import LAYERS, Drawing, PathOp
 
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
-
-#: Default look of each layer (the styles package overrides it).
-LAYER_STYLE = {
-    "silhouettes": {"stroke": "#1a1a1a", "opacity": 1.0, "dash": None},
-    "curves": {"stroke": "#1a1a1a", "opacity": 1.0, "dash": None},
-    "hidden": {"stroke": "#8c8c8c", "opacity": 1.0, "dash": (4.0, 3.0)},
-}
-
 
 class _Metadata(svgwrite.base.BaseElement):
     """``<metadata>`` holding JSON text (svgwrite has no class for it)."""
@@ -66,33 +59,75 @@ def camera_metadata(drawing: Drawing, source: str = "") -> dict[str, Any]:
         "R": np.round(cam.R, 9).tolist(), "t": np.round(cam.t, 9).tolist()}}
 
 
-def to_svg(drawing: Drawing, tolerance: float = 0.05, source: str = "", background: str | None = None,
-           width_px: float | None = None) -> str:
-    """The SVG document of a drawing as text (byte-identical for identical input)."""
+def to_svg(drawing: Drawing, tolerance: float = 0.05, source: str = "", background: str | None = "",
+           width_px: float | None = None, style: Style | None = None, filters: bool = True) -> str:
+    """The SVG document of a drawing as text (byte-identical for identical input).
+
+    Args:
+        background: ``""`` uses the style's background, ``None`` or ``"none"`` leaves it transparent, a hex
+            colour overrides it.
+        style: a :class:`~doodle.styles.Style` (default: built-in ``ink``). Plain styles write the exact
+            cubic paths; others write the style's geometry (jitter, passes, tapered outlines).
+        filters: allow SVG filter effects (grain); off for tools that ignore filters.
+    """
+    style = style or load_style("ink")
     cam = drawing.camera
     dwg = svgwrite.Drawing(size=(f"{cam.width}px", f"{cam.height}px"), profile="full", debug=False)
     dwg.viewbox(0, 0, cam.width, cam.height)
     dwg.attribs["xmlns:inkscape"] = INKSCAPE_NS
     dwg.set_desc(title="doodle sketch", desc=f"{cam.name} of {source}" if source else cam.name)
-    dwg.add(_Metadata(json.dumps(camera_metadata(drawing, source), sort_keys=True), id="doodle-metadata"))
-    if background:
-        dwg.add(dwg.rect((0, 0), (cam.width, cam.height), fill=background, id="background"))
+    dwg.add(_Metadata(json.dumps({**camera_metadata(drawing, source), "style": style.name}, sort_keys=True),
+                      id="doodle-metadata"))
+    bg = style.background if background == "" else (background or "none")
+    if bg != "none":
+        g = _layer(dwg, "background")
+        g.add(dwg.rect((0, 0), (cam.width, cam.height), fill=bg, id="background"))
+        dwg.add(g)
+    grain = filters and style.filter.grain > 0
+    if grain:
+        f = dwg.defs.add(dwg.filter(id="doodle-grain", x="-5%", y="-5%", width="110%", height="110%"))
+        f.feTurbulence(type="fractalNoise", baseFrequency="0.8", numOctaves="2", seed=str(style.seed), result="noise")
+        f.feDisplacementMap(in_="SourceGraphic", in2="noise", scale=f"{2.5 * style.filter.grain:g}",
+                            xChannelSelector="R", yChannelSelector="G")
     digits = digits_for(tolerance)
-    width = width_px if width_px is not None else drawing.width_px
+    base_width = (width_px if width_px is not None else drawing.width_px) * style.line.width
+    ln, hd = style.line, style.hidden
     for layer in LAYERS:
         ops = drawing.layer(layer)
         if not ops:
             continue
-        st = LAYER_STYLE[layer]
-        g = dwg.g(id=f"layer-{layer}", fill="none", stroke=st["stroke"], stroke_width=f"{width:g}",
-                  stroke_linecap="round", stroke_linejoin="round")
-        g.attribs["inkscape:groupmode"] = "layer"
-        g.attribs["inkscape:label"] = layer
-        if st["dash"]:
-            g.attribs["stroke-dasharray"] = " ".join(f"{v * width:g}" for v in st["dash"])
-        if st["opacity"] != 1.0:
-            g.attribs["stroke-opacity"] = f"{st['opacity']:g}"
+        hidden = layer == "hidden"
+        width = base_width * (ln.silhouette_width if layer == "silhouettes" else 1.0)
+        outline = not hidden and (ln.taper > 0 or ln.width_variation > 0)
+        color = hd.color if hidden else ln.color
+        g = _layer(dwg, layer)
+        if outline:
+            g.attribs.update({"fill": color, "stroke": "none"})
+        else:
+            g.attribs.update({"fill": "none", "stroke": color, "stroke-width": f"{width:g}",
+                              "stroke-linecap": ln.linecap, "stroke-linejoin": "round"})
+        dash = hd.dash if hidden else ln.dash
+        if dash and not outline:
+            g.attribs["stroke-dasharray"] = " ".join(f"{v * width:g}" for v in dash)
+        opacity = hd.opacity if hidden else ln.opacity
+        if opacity != 1.0:
+            g.attribs["fill-opacity" if outline else "stroke-opacity"] = f"{opacity:g}"
+        if ln.blend != "normal":
+            g.attribs["style"] = f"mix-blend-mode:{ln.blend}"
+        if grain and not hidden:
+            g.attribs["filter"] = "url(#doodle-grain)"
         for op in ops:
-            g.add(dwg.path(d=path_data(op, digits), id=op.id))
+            if style.is_plain:
+                g.add(dwg.path(d=path_data(op, digits), id=op.id))
+                continue
+            for k, d in enumerate(styled_path_data(op.subpaths, op.closed, style, op.id, width, outline)):
+                g.add(dwg.path(d=d, id=op.id if k == 0 else f"{op.id}-pass{k}"))
         dwg.add(g)
     return dwg.tostring() + "\n"
+
+
+def _layer(dwg: svgwrite.Drawing, name: str):
+    g = dwg.g(id=f"layer-{name}")
+    g.attribs["inkscape:groupmode"] = "layer"
+    g.attribs["inkscape:label"] = name
+    return g

@@ -4,6 +4,7 @@ and clean interruption (Ctrl-C ends the stage and keeps the best state)."""
 from __future__ import annotations
 
 import copy
+import math
 import sys
 import time
 from dataclasses import dataclass, field
@@ -52,6 +53,12 @@ def run_stage(
     opt = torch.optim.Adam(module.parameters(), lr=lr)
     if state.optimizer:
         opt.load_state_dict(state.optimizer)
+
+    def set_lr(step: int) -> None:
+        # cosine decay to 10 %: large steps to find the lines, small ones to settle on them
+        frac = step / max(iterations, 1)
+        for group in opt.param_groups:
+            group["lr"] = lr * (0.1 + 0.45 * (1 + math.cos(math.pi * min(frac, 1.0))))
     interrupted = False
     tty = sys.stderr.isatty()
     # A live bar on terminals; in logs (CI, pipes) a plain line every 10 % instead of carriage returns.
@@ -61,6 +68,7 @@ def run_stage(
     started, start_step = time.perf_counter(), state.step
     try:
         while state.step < iterations:
+            set_lr(state.step)
             views = torch.randperm(n_views, generator=generator, device=generator.device)[:views_per_step]
             terms = terms_fn(views)
             opt.zero_grad(set_to_none=True)
