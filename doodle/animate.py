@@ -137,8 +137,7 @@ def animate_many(strokes: StrokeSet, outputs: dict[str, Path], opt: AnimateOptio
 
             with atomic_path(path) as tmp:
                 even = [np.asarray(im)[: im.height // 2 * 2, : im.width // 2 * 2] for im in images]
-                iio.mimwrite(tmp, even, format="FFMPEG", fps=opt.fps, codec="libx264", quality=8,
-                             output_params=["-pix_fmt", "yuv420p"], macro_block_size=1)
+                iio.mimwrite(tmp, even, format="FFMPEG", fps=opt.fps, codec="libx264", quality=8, macro_block_size=1)
         else:
             write_text(path, animated_svg(svgs, opt.fps))
         written.append(path)

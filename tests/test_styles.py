@@ -169,6 +169,14 @@ class TestAnimation:
         ids = re.findall(r'id="([^"]+)"', svg)
         assert len(ids) == len(set(ids))
 
+    def test_mp4(self, tmp_path):
+        pytest.importorskip("imageio_ffmpeg", reason="optional extra doodle3d[video] not installed")
+        import imageio.v2 as iio
+
+        out = animate(sample_strokes(), tmp_path / "t.mp4", AnimateOptions(frames=6, size=64, workers=1))
+        reader = iio.get_reader(out)
+        assert reader.count_frames() == 6 and reader.get_meta_data()["size"] == (64, 64)
+
     def test_mp4_without_ffmpeg_is_a_clear_error(self, tmp_path, monkeypatch):
         import builtins
 

@@ -52,7 +52,7 @@ class EdgesObjective:
 
     def __init__(self, rays_per_view: int = 1024, samples_per_ray: int = 32, gamma: float = 8.0,
                  samples_per_curve: int = 32, recall_pixels: int = 400, robust_c: float = 2.0,
-                 w_recall: float = 1.0, w_smooth: float = 4.0, w_repel: float = 4.0, repel_distance: float = 0.06):
+                 w_recall: float = 3.0, w_smooth: float = 10.0, w_repel: float = 4.0, repel_distance: float = 0.06):
         self.rays_per_view = rays_per_view
         self.samples_per_ray = samples_per_ray
         self.gamma = gamma
