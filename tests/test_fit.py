@@ -63,14 +63,15 @@ class TestShortFits:
     def test_curves_move_onto_feature_edges(self, chair_dir):
         scene = load_scene(chair_dir)
         gt = load_ground_truth(chair_dir)["feature_edges"]
-        tol = 0.05 * scene.frame.radius
+        tol = 0.05 * scene.frame.radius  # 96 px working size: 1 px ≈ 3 % of the radius
         cfg = FitConfig(curves=12, superquadrics=0, iterations=250, prune_curves=False, **QUICK)
         before = fit(scene, FitConfig(**{**vars(cfg), "iterations": 0}), progress=False, log=lambda m: None)
         after = fit(scene, cfg, progress=False, log=lambda m: None)
-        p0, _ = edge_scores(before.strokes.curves.control_points, gt, tol)
+        p0, r0 = edge_scores(before.strokes.curves.control_points, gt, tol)
         p1, r1 = edge_scores(after.strokes.curves.control_points, gt, tol)
-        assert p1 > max(0.5, p0 + 0.2), (p0, p1)
-        assert r1 > 0.15
+        # short straight curves seeded on a hull of thin boxes already sit near edges; fitting stretches them
+        # along the edges (coverage ×4) while they stay on them
+        assert p1 > 0.65 and r1 > r0 + 0.25, (p0, r0, p1, r1)
 
     def test_superquadrics_explain_the_silhouette(self, snowman_dir):
         scene = load_scene(snowman_dir)
