@@ -1,6 +1,5 @@
 import io
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +10,6 @@ from scipy import ndimage
 
 from doodle.cameras import Camera, look_at, orbit_cameras
 from doodle.cli import cli
-from doodle.errors import DoodleError
 from doodle.exporters import DrawOptions, ExportOptions, draw, export_views, svg_to_array, to_svg, union_mask
 from doodle.exporters.project import depth_intervals, project_curve
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, write_strokes

@@ -1,5 +1,4 @@
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +16,7 @@ from doodle.fit.pipeline import prune_curves, silhouette_iou
 from doodle.fit.targets import build_targets, working_scene
 from doodle.samples import load_ground_truth, write_sample
 from doodle.scenes import load_scene
-from doodle.strokes import CurveSet, SceneFrame, StrokeSet, read_strokes
+from doodle.strokes import CurveSet, StrokeSet, read_strokes
 
 from helpers_geometry import edge_scores
 

@@ -1,12 +1,11 @@
 import json
-import math
 
 import numpy as np
 import pytest
 from PIL import Image
 from scipy import ndimage
 
-from doodle.cameras import Camera, look_at
+from doodle.cameras import Camera
 from doodle.errors import SceneError
 from doodle.samples import load_ground_truth, render_rgba, sample_cameras
 from doodle.samples.scenes import chair

@@ -1,4 +1,3 @@
-import io
 import json
 import re
 
@@ -7,7 +6,7 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from doodle.animate import AnimateOptions, animate, animate_many, animated_svg, render_frames
+from doodle.animate import AnimateOptions, animate, animate_many, render_frames
 from doodle.cameras import orbit_cameras
 from doodle.cli import cli
 from doodle.errors import DoodleError

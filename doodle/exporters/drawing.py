@@ -60,15 +60,16 @@ class Drawing:
 
 def check_camera(strokes: StrokeSet, camera: Camera) -> None:
     """Reject cameras that cannot see the object: at the centre or inside the strokes' volume."""
-    c = camera.center if camera.projection == "perspective" else camera.center
+    c = camera.center  # orthographic cameras: the eye point on the axis, at the orbit distance
     f = strokes.frame
+    name = f"camera {camera.name}" if camera.name else "the camera"
     if np.linalg.norm(c - f.center) < 1e-6 * f.radius:
-        raise DoodleError(f"camera {camera.name or ''} sits at the scene centre".replace("  ", " "))
+        raise DoodleError(f"{name} sits at the scene centre")
     lo, hi = strokes.bounding_box()
     sq = strokes.superquadrics
     inside_union = len(sq) and union_log_inside_outside(c[None], sq.scale, sq.shape, sq.rotation, sq.translation)[0] < 0
     if inside_union or (np.all(c > lo) and np.all(c < hi)):
-        raise DoodleError(f"camera {camera.name} at {np.round(c, 3).tolist()} is inside the object "
+        raise DoodleError(f"{name} at {np.round(c, 3).tolist()} is inside the object "
                           f"(the strokes' bounding box); move it further out")
 
 

@@ -63,10 +63,10 @@ def project_curve(control: np.ndarray, camera: Camera, a: float = 0.0, b: float 
     stack = [(a, b, 0)]
     while stack:
         lo, hi, depth = stack.pop()
-        ends, dends = _project_with_derivative(camera, control, np.array([lo, hi]))
+        pts, ders = _project_with_derivative(camera, control, np.r_[lo, hi, lo + _CHECK * (hi - lo)])
         h = (hi - lo) / 3
-        cubic = np.stack([ends[0], ends[0] + h * dends[0], ends[1] - h * dends[1], ends[1]])
-        truth, _ = _project_with_derivative(camera, control, lo + _CHECK * (hi - lo))
+        cubic = np.stack([pts[0], pts[0] + h * ders[0], pts[1] - h * ders[1], pts[1]])
+        truth = pts[2:]
         err = np.linalg.norm(bernstein(_CHECK) @ cubic - truth, axis=1).max()
         if err <= tolerance or depth >= _MAX_DEPTH:
             pieces.append(cubic)

@@ -170,8 +170,8 @@ def _signed_pow(v: torch.Tensor, e: torch.Tensor) -> torch.Tensor:
     """``sgn(v)|v|^e`` with round-off zeros kept at zero: ``sin(π) = 1.2e-16`` to the power 0.1 is 0.025,
     which would open the ω = ±π seam of a box-like superquadric by 2.5 % of its size."""
     xp = ops(v)
-    small = xp.abs(v) < 1e-9
-    return xp.where(small, 0.0 * v, xp.sign(v) * xp.clip_min(xp.abs(v), 1e-9) ** e)
+    a = xp.abs(v)
+    return xp.where(a < 1e-9, 0.0 * v, xp.sign(v) * xp.clip_min(a, 1e-9) ** e)
 
 
 def surface_points(
