@@ -233,3 +233,31 @@ def test_quality_snowman_superquadrics(tmp_path, m):
     res = fit(load_scene(scene_dir), FitConfig(curves=0, superquadrics=m), progress=False, log=lambda m: None)
     test = working_scene(load_scene(scene_dir, split="test"), 256)
     assert silhouette_iou(res.strokes.superquadrics, test.cameras, test.masks) >= 0.90
+
+
+class TestTriangulation:
+    def test_known_pose_points_on_real_lego(self, lego_dir):
+        from doodle.scenes import load_scene_at_size
+        from doodle.scenes.triangulate import triangulate_scene_points
+
+        scene = load_scene_at_size(lego_dir, "train", 400)
+        pts = triangulate_scene_points(scene, max_views=16, log=lambda m: None)
+        assert len(pts) >= 30
+        inside = []
+        for cam, mask in zip(scene.cameras[::10], scene.masks[::10]):
+            uv, z = cam.project(pts)
+            u, v = uv[:, 0].astype(int), uv[:, 1].astype(int)
+            ok = (z > 0) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
+            inside.append(mask[v[ok], u[ok]].mean())
+        assert np.mean(inside) > 0.9  # the poses were held fixed: points land on the object in every view
+
+    def test_textureless_scene_is_a_clear_error_and_auto_falls_back(self, chair_dir):
+        from doodle.scenes.triangulate import triangulate_scene_points
+
+        scene = working_scene(load_scene(chair_dir), 96)
+        with pytest.raises(SceneError, match="triangulation"):
+            triangulate_scene_points(scene, max_views=6, log=lambda m: None)
+        scene.masks = None
+        logs = []
+        fit(scene, FitConfig(curves=3, iterations=3, **QUICK), progress=False, log=logs.append)
+        assert any("bounding box" in m for m in logs)

@@ -52,22 +52,32 @@ def visual_hull(scene: Scene, resolution: int = 64, slack_px: int = 1) -> tuple[
     return pts[inside], pts[surface.ravel()], 2 * r / resolution
 
 
-def initial_points(scene: Scene, method: str, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, str]:
+def initial_points(scene: Scene, method: str, rng: np.random.Generator,
+                   log=lambda msg: None) -> tuple[np.ndarray, np.ndarray, str]:
     """Sample locations for initial strokes: ``(surface-like points, interior points, method used)``.
 
     ``auto`` takes SfM points when the scene has at least 50, else the visual hull when it has masks, else
-    random points in the bounding box.
+    points triangulated with the known poses, else random points in the bounding box. ``points`` on a scene
+    without SfM points triangulates them (pycolmap, known poses).
     """
+    from ..errors import SceneError
+    from ..scenes.triangulate import triangulate_scene_points
+
     if method == "auto":
         if scene.points is not None and len(scene.points) >= 50:
             method = "points"
         elif scene.masks is not None:
             method = "hull"
         else:
-            method = "bbox"
+            try:
+                scene.points = triangulate_scene_points(scene, log=log)
+                method = "points"
+            except SceneError as exc:
+                log(f"no SfM points ({exc}); falling back to the bounding box")
+                method = "bbox"
     if method == "points":
         if scene.points is None or len(scene.points) == 0:
-            raise ValueError("the scene has no SfM points (use --init hull or bbox)")
+            scene.points = triangulate_scene_points(scene, log=log)
         d = np.linalg.norm(scene.points - scene.frame.center, axis=1)
         pts = scene.points[d <= 1.2 * scene.frame.radius]
         pts = pts if len(pts) >= 10 else scene.points

@@ -266,7 +266,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     rng = np.random.default_rng(cfg.seed)
     gen = torch.Generator(device=device)
     gen.manual_seed(cfg.seed)
-    surface, interior, method = initial_points(work, cfg.init, rng)
+    surface, interior, method = initial_points(work, cfg.init, rng, say)
     say(f"initialisation: {dict(points='SfM points', hull='visual hull', bbox='random in the bounding box')[method]}"
         f" ({len(surface)} candidate points)")
     objective = make_objective(cfg.objective)
