@@ -283,13 +283,14 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             say(f"superquadrics: none ({score:.0%} of the image lines are long straight edges: curves draw them)")
         else:
             say(f"superquadrics: fitting up to {cfg.max_superquadrics} ({score:.0%} of the image lines are straight)")
-    n_sq = cfg.max_superquadrics if cfg.superquadrics == "auto" else int(cfg.superquadrics)
 
-    sq_params = SuperquadricParams.from_set(initial_superquadrics(farthest_points(interior, n_sq, rng), frame.radius)) \
-        if wants_sq and n_sq and cfg.superquadrics != "auto" else (SuperquadricParams.from_set(initial_superquadrics(interior[:1], frame.radius)) if wants_sq else None)
+    # A fixed count starts from farthest points of the hull; "auto" grows its own set in the stage.
+    fixed = wants_sq and cfg.superquadrics != "auto"
+    sq_params = SuperquadricParams.from_set(initial_superquadrics(farthest_points(interior, int(cfg.superquadrics), rng), frame.radius)) \
+        if fixed else None
     curve_params = CurveParams(initial_curves(farthest_points(surface, max(cfg.curves, 1), rng), 0.15 * frame.radius, rng)[: cfg.curves])
     stage_states = {"superquadrics": StageState(), "curves": StageState()}
-    stage = "superquadrics" if sq_params is not None else "curves"
+    stage = "superquadrics" if wants_sq else "curves"
     final_sq: SuperquadricSet | None = None
     if ck is not None:
         stage = ck["stage"]
