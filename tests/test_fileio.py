@@ -182,3 +182,15 @@ def test_property_corrupt_binary_raises_only_stroke_file_error(data):
         decode(bytes(raw))
     except StrokeFileError:
         pass
+
+
+def test_written_files_get_normal_permissions(tmp_path):
+    import os
+    import stat
+
+    umask = os.umask(0o022)
+    try:
+        write_strokes(tmp_path / "p.doodle", random_strokes(n_curves=1, n_sq=0))
+    finally:
+        os.umask(umask)
+    assert stat.S_IMODE((tmp_path / "p.doodle").stat().st_mode) == 0o644
