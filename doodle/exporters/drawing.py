@@ -95,9 +95,9 @@ def draw(strokes: StrokeSet, camera: Camera, options: DrawOptions | None = None)
             hidden = is_hidden(poly)
             pid = f"silhouette-{i:03d}-{k}"
             for is_h, layer in ((False, "silhouettes"), (True, "hidden")):
-                keep = (hidden == is_h) & (depth > near)
                 if is_h and opt.hidden == "hide":
                     continue
+                keep = (hidden == is_h) & (depth > near)
                 op = PathOp(pid if not is_h else f"hidden-{pid}", layer)
                 for run in split_runs(poly, keep):
                     closed = len(run) > 3 and np.linalg.norm(run[0] - run[-1]) < 1e-9

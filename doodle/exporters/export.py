@@ -14,6 +14,7 @@ from pathlib import Path
 
 from PIL import Image
 
+from ..atomic import atomic_path
 from ..cameras import Camera, Projection, orbit_cameras
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
@@ -62,16 +63,7 @@ def render_many(job, cameras: list[Camera], workers: int = 0):
     # fork: workers start in milliseconds (spawn would re-import torch, ~1 s each). The exporters run numpy
     # only, so a parent that used torch's thread pool before forking is safe.
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        yield from pool.map(_call, [(job, c) for c in cameras], chunksize=max(1, len(cameras) // (4 * workers)))
-
-
-def _call(args):
-    job, cam = args
-    return job(cam)
-
-
-def _render_all(strokes: StrokeSet, cameras: list[Camera], opt: ExportOptions):
-    yield from render_many(partial(_render_view, strokes, opt), cameras, opt.workers)
+        yield from pool.map(job, cameras, chunksize=max(1, len(cameras) // (4 * workers)))
 
 
 def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,
@@ -123,7 +115,8 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     written: list[Path] = []
     sheet_images: list[Image.Image] = []
     try:
-        for k, (svg, png, pdf) in enumerate(_render_all(strokes, cameras, opt)):
+        job = partial(_render_view, strokes, opt)
+        for k, (svg, png, pdf) in enumerate(render_many(job, cameras, opt.workers)):
             stem = f"view_{k:03d}"
             if opt.svg:
                 (tmp / f"{stem}.svg").write_text(svg, encoding="utf-8")
@@ -135,18 +128,14 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
                 (tmp / f"{stem}.pdf").write_bytes(pdf)
             if progress:
                 progress(k + 1, len(cameras))
-        if opt.sheet:
-            sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))])
-            sheet_tmp = tmp / "sheet.png"
-            sheet.save(sheet_tmp)
+        # built before anything moves, so a failure here leaves OUT_DIR as it was
+        sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))]) if opt.sheet else None
         for f in sorted(tmp.iterdir()):
-            if f.name == "sheet.png":
-                continue
             os.replace(f, out / f.name)
             written.append(out / f.name)
-        if opt.sheet:
-            Path(opt.sheet).parent.mkdir(parents=True, exist_ok=True)
-            shutil.move(str(tmp / "sheet.png"), str(opt.sheet))
+        if sheet is not None:
+            with atomic_path(opt.sheet) as sheet_tmp:
+                sheet.save(sheet_tmp, format="PNG")
             written.append(Path(opt.sheet))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

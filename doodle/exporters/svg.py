@@ -14,6 +14,7 @@ from .drawing import LAYERS, Drawing, PathOp
 
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 
+
 class _Metadata(svgwrite.base.BaseElement):
     """``<metadata>`` holding JSON text (svgwrite has no class for it)."""
 

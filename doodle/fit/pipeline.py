@@ -289,7 +289,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     sq_params = SuperquadricParams.from_set(initial_superquadrics(farthest_points(interior, int(cfg.superquadrics), rng), frame.radius)) \
         if fixed else None
     curve_params = CurveParams(initial_curves(farthest_points(surface, max(cfg.curves, 1), rng), 0.15 * frame.radius, rng)[: cfg.curves])
-    stage_states = {"superquadrics": StageState(), "curves": StageState()}
+    curve_state = StageState()  # the superquadric stage restarts when resumed, so only this one is kept
     stage = "superquadrics" if wants_sq else "curves"
     final_sq: SuperquadricSet | None = None
     if ck is not None:
@@ -299,7 +299,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         if ck.get("sq_params") is not None and sq_params is not None:
             sq_params.load_state_dict(ck["sq_params"])
         curve_params.load_state_dict(ck["curve_params"])
-        stage_states[stage] = ck["stage_state"]
+        if stage == "curves":
+            curve_state = ck["stage_state"]
         gen.set_state(ck["generator"])
     if sq_params is not None:
         sq_params.to(device)
@@ -331,7 +332,6 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     interrupted = False
     if stage == "superquadrics":
         targets = build_targets(work, str(device))
-        objective.begin(targets, frame, gen)
 
         def sq_stage(params: SuperquadricParams, steps: int, label: str = "superquadrics") -> bool:
             objective.begin(targets, frame, gen)
@@ -356,14 +356,13 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         exclude = silhouette_pixels(final_sq, frame, work.cameras) if len(final_sq) else None
         targets = build_targets(work, str(device), exclude)
         objective.begin(targets, frame, gen)
-        state, interrupted = run_stage(
+        _, interrupted = run_stage(
             "curves", curve_params, lambda v: objective.curve_terms(curve_params, v), cfg.iterations, cfg.lr_curves * frame.radius,
-            targets.views, min(cfg.views_per_step, targets.views), gen, stage_states["curves"] if ck is None or ck["stage"] == "curves" else StageState(),
-            checkpointer("curves"), cfg.checkpoint_every, previewer("curves"), cfg.preview_every, progress)
+            targets.views, min(cfg.views_per_step, targets.views), gen, curve_state, checkpointer("curves"), cfg.checkpoint_every, previewer("curves"), cfg.preview_every, progress)
     if interrupted:
         say("interrupted: keeping the best state so far")
         if ckpt_path is not None:
-            checkpointer(stage)(stage_states.get(stage, StageState()))
+            checkpointer(stage)(curve_state if stage == "curves" else StageState())
     curves = curve_params.to_set(cfg.width_px) if cfg.curves > 0 else CurveSet(width_px=cfg.width_px)
     if cfg.prune_curves and len(curves) and stage == "curves":
         n_before = len(curves)

@@ -43,12 +43,12 @@ def preview_sheet(out: str | Path, strokes: StrokeSet | None = None, names: list
     strokes = strokes or sample_strokes()
     names = names or builtin_names()
     cam = orbit_cameras(strokes.frame, 8, size, size)[1]
+    styles = [load_style(n) for n in names]
     images = []
-    for name in names:
-        st = load_style(name)
+    for st in styles:
         d = draw(strokes, cam, DrawOptions(tolerance=0.25, hidden=st.hidden_mode or "hide"))
         images.append(Image.open(io.BytesIO(svg_to_png(to_svg(d, 0.25, style=st)))))
-    sheet = contact_sheet(images, columns=min(4, len(images)), cell=size, labels=[load_style(n).name for n in names])
+    sheet = contact_sheet(images, columns=min(4, len(images)), cell=size, labels=[st.name for st in styles])
     out = Path(out)
     with atomic_path(out) as tmp:
         sheet.save(tmp, format="PNG")

@@ -6,6 +6,7 @@ pixels, widths are multiples of the stroke file's ``width_px``.
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import sys
@@ -156,16 +157,27 @@ def _builtin_dir():
     return resources.files("doodle.styles") / "builtin"
 
 
+@functools.lru_cache(maxsize=1)
+def _builtin_names() -> tuple[str, ...]:
+    return tuple(sorted(p.name[:-5] for p in _builtin_dir().iterdir() if p.name.endswith(".toml")))
+
+
 def builtin_names() -> list[str]:
-    return sorted(p.name[:-5] for p in _builtin_dir().iterdir() if p.name.endswith(".toml"))
+    return list(_builtin_names())
+
+
+@functools.lru_cache(maxsize=None)
+def _builtin_style(name: str) -> Style:
+    # Parsed once per process: every view, frame and preview without an explicit style draws with "ink".
+    res = _builtin_dir() / f"{name}.toml"
+    return style_from_dict(tomllib.loads(res.read_text(encoding="utf-8")), f"built-in style {name}")
 
 
 def load_style(name_or_path: str | Path) -> Style:
     """A built-in style by name, or a ``.toml`` / ``.json`` style file."""
     text_name = str(name_or_path)
-    if text_name in builtin_names():
-        res = _builtin_dir() / f"{text_name}.toml"
-        return style_from_dict(tomllib.loads(res.read_text(encoding="utf-8")), f"built-in style {text_name}")
+    if text_name in _builtin_names():
+        return _builtin_style(text_name)
     path = Path(text_name)
     if path.suffix.lower() not in (".toml", ".json") or not path.exists():
         if path.suffix.lower() in (".toml", ".json"):
