@@ -11,8 +11,8 @@ from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
 from ..strokes.superquadric import union_log_inside_outside
-from .fitcurve import fit_cubics
-from .project import depth_intervals, project_curve, visibility_runs
+from .fitcurve import fit_cubics_many
+from .project import depth_intervals, project_curves, visibility_runs
 from .silhouettes import contour_polylines, split_runs
 from .visibility import occluded
 
@@ -87,29 +87,50 @@ def draw(strokes: StrokeSet, camera: Camera, options: DrawOptions | None = None)
     paths: list[PathOp] = []
 
     if opt.silhouettes and len(sq):
-        per_sq: dict[int, int] = {}
-        for i, poly in contour_polylines(sq, camera, *opt.silhouette_grid):
-            k = per_sq.get(i, 0)
-            per_sq[i] = k + 1
-            depth = (poly @ camera.R.T + camera.t)[:, 2]
-            hidden = is_hidden(poly)
-            pid = f"silhouette-{i:03d}-{k}"
-            for is_h, layer in ((False, "silhouettes"), (True, "hidden")):
-                if is_h and opt.hidden == "hide":
-                    continue
-                keep = (hidden == is_h) & (depth > near)
-                op = PathOp(pid if not is_h else f"hidden-{pid}", layer)
-                for run in split_runs(poly, keep):
-                    closed = len(run) > 3 and np.linalg.norm(run[0] - run[-1]) < 1e-9
-                    uv, _ = camera.project(run)
-                    op.subpaths.append(fit_cubics(uv, opt.tolerance, closed=closed))
-                    op.closed.append(closed)
-                if op.subpaths:
-                    paths.append(op)
-
+        paths.extend(_silhouette_paths(sq, camera, opt, margin if use_occlusion else None, near))
     if opt.curves and len(strokes.curves):
         paths.extend(_curve_paths(strokes.curves.control_points, camera, is_hidden, near, opt))
     return Drawing(camera, paths, strokes.curves.width_px)
+
+
+def _silhouette_paths(sq, camera: Camera, opt: DrawOptions, margin: float | None, near: float) -> list[PathOp]:
+    """Visible (and hidden) runs of the union's contour, all fitted with cubics in one batch."""
+    polys = contour_polylines(sq, camera, *opt.silhouette_grid)
+    if not polys:
+        return []
+    points = np.concatenate([p for _, p, _ in polys])
+    if margin is None:
+        hidden = np.zeros(len(points), bool)
+    else:  # a contour point is never hidden by its own convex superquadric
+        owner = np.concatenate([np.full(len(p), i) for i, p, _ in polys])
+        hidden = occluded(points, camera, sq, margin, exclude=owner)
+    depth = (points @ camera.R.T + camera.t)[:, 2]
+    uv_all, _ = camera.project(points)
+    # The outline's image tangent is perpendicular to the projected surface normal (n_x / f_x, n_y / f_y):
+    # the tangent plane at a contour point contains the eye, so it projects to the outline's tangent line.
+    n_cam = np.concatenate([n for _, _, n in polys]) @ camera.R.T
+    tangent_all = np.stack([-n_cam[:, 1] / camera.fy, n_cam[:, 0] / camera.fx], axis=1)
+    cuts = np.cumsum([len(p) for _, p, _ in polys])[:-1]
+    ops, runs, tangents, closed = [], [], [], []
+    per_sq: dict[int, int] = {}
+    for (i, poly, _), hid, z, uv, tan in zip(polys, np.split(hidden, cuts), np.split(depth, cuts),
+                                           np.split(uv_all, cuts), np.split(tangent_all, cuts)):
+        k = per_sq.get(i, 0)
+        per_sq[i] = k + 1
+        pid = f"silhouette-{i:03d}-{k}"
+        for is_h, layer in ((False, "silhouettes"), (True, "hidden")):
+            if is_h and opt.hidden == "hide":
+                continue
+            op = PathOp(pid if not is_h else f"hidden-{pid}", layer)
+            for run in split_runs(np.hstack([poly, uv, tan]), (hid == is_h) & (z > near)):
+                is_closed = len(run) > 3 and np.linalg.norm(run[0, :3] - run[-1, :3]) < 1e-9
+                runs.append(run[:, 3:5]), tangents.append(run[:, 5:]), closed.append(is_closed)
+                op.closed.append(is_closed)
+            ops.append(op)
+    fitted = iter(fit_cubics_many(runs, opt.tolerance, closed, tangents))
+    for op in ops:
+        op.subpaths = [next(fitted) for _ in op.closed]
+    return [op for op in ops if op.subpaths]
 
 
 def _curve_paths(controls: np.ndarray, camera: Camera, is_hidden, near: float, opt: DrawOptions) -> list[PathOp]:
@@ -117,14 +138,12 @@ def _curve_paths(controls: np.ndarray, camera: Camera, is_hidden, near: float, o
     intervals = [depth_intervals(c, camera, near) for c in controls]
     flat = [(n, a, b) for n, iv in enumerate(intervals) for a, b in iv]
     runs = visibility_runs(controls, flat, is_hidden)
-    out = []
-    for n, control in enumerate(controls):
-        vis, hid = PathOp(f"curve-{n:03d}", "curves"), PathOp(f"hidden-curve-{n:03d}", "hidden")
-        for lo, hi, h in runs.get(n, []):
-            if h and opt.hidden == "hide":
-                continue
-            target = hid if h else vis
-            target.subpaths.append(project_curve(control, camera, lo, hi, opt.tolerance))
-            target.closed.append(False)
-        out.extend(op for op in (vis, hid) if op.subpaths)
-    return out
+    pieces = [(n, lo, hi, h) for n in range(len(controls)) for lo, hi, h in runs.get(n, [])
+              if not (h and opt.hidden == "hide")]
+    projected = project_curves(controls, [(n, lo, hi) for n, lo, hi, _ in pieces], camera, opt.tolerance)
+    ops: dict[tuple[int, bool], PathOp] = {}
+    for (n, _, _, h), (cubics, _) in zip(pieces, projected):
+        op = ops.setdefault((n, h), PathOp(f"hidden-curve-{n:03d}" if h else f"curve-{n:03d}", "hidden" if h else "curves"))
+        op.subpaths.append(cubics)
+        op.closed.append(False)
+    return [ops[key] for key in sorted(ops)]

@@ -1,148 +1,263 @@
 """Fit 2D polylines with as few cubic Béziers as a tolerance allows (Schneider, Graphics Gems 1990).
 
-Used for superquadric silhouettes, whose contours come out of marching squares as dense polylines.
+Used for superquadric silhouettes, whose contours come out of marching squares as dense polylines. The
+recursion of Schneider's algorithm runs breadth first and vectorised over every segment of every polyline
+of a view at once: one round fits all open segments (least squares with fixed end points and end tangent
+directions), improves the parameters of nearly fitting ones by Newton steps, and splits the rest at their
+worst point. A view's silhouettes take ~10 rounds of a few array operations instead of thousands of tiny
+per-segment calls.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+_NEWTON_STEPS = 4
+_MAX_ROUNDS = 24
 
-def bernstein(u: np.ndarray) -> np.ndarray:
-    """Cubic Bernstein basis ``(T, 4)`` (numpy only: this module makes thousands of tiny calls)."""
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.where(n > 1e-12, v / np.where(n > 1e-12, n, 1.0), 0.0)
+
+
+def _quadratic_tangents(prev: np.ndarray, mid: np.ndarray, nxt: np.ndarray) -> np.ndarray:
+    """Unit tangents ``(P, 2)`` at ``mid`` of the quadratics through ``prev, mid, nxt`` (chord-length spacing).
+
+    Second-order accurate, where the secant leaves an error floor the fit could only meet by splitting.
+    """
+    h1 = np.linalg.norm(mid - prev, axis=1, keepdims=True)
+    h2 = np.linalg.norm(nxt - mid, axis=1, keepdims=True)
+    ok = (h1 > 1e-12) & (h2 > 1e-12)
+    h1, h2 = np.where(ok, h1, 1.0), np.where(ok, h2, 1.0)
+    d = -h2 / (h1 * (h1 + h2)) * prev + (h2 - h1) / (h1 * h2) * mid + h1 / (h2 * (h1 + h2)) * nxt
+    return _unit_rows(np.where(ok, d, nxt - prev))
+
+
+def _end_tangent(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
+    """Unit tangent at ``p0`` pointing towards ``p1`` of the quadratic through ``p0, p1, p2``."""
+    h1, h2 = np.linalg.norm(p1 - p0), np.linalg.norm(p2 - p1)
+    if h1 < 1e-12 or h2 < 1e-12:
+        return _unit_rows((p1 - p0)[None])[0]
+    d = -(2 * h1 + h2) / (h1 * (h1 + h2)) * p0 + (h1 + h2) / (h1 * h2) * p1 - h1 / (h2 * (h1 + h2)) * p2
+    return _unit_rows(d[None])[0]
+
+
+def _prepare(points: np.ndarray, closed: bool, tangents: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Drop repeated points, close loops, and give every vertex a unit tangent in the direction of travel."""
+    pts = np.asarray(points, dtype=np.float64)
+    keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
+    pts = pts[keep]
+    tan = None if tangents is None else np.asarray(tangents, dtype=np.float64)[keep]
+    if closed and len(pts) > 2 and np.linalg.norm(pts[0] - pts[-1]) > 1e-9:
+        pts = np.vstack([pts, pts[:1]])
+        tan = None if tan is None else np.vstack([tan, tan[:1]])
+    closed = closed and len(pts) > 3
+    if len(pts) < 3:
+        t = _unit_rows((pts[-1] - pts[0])[None]) if len(pts) == 2 else np.zeros((1, 2))
+        return pts, np.repeat(t, len(pts), axis=0)
+    if closed:  # the seam is an ordinary interior vertex of the loop
+        prev, nxt = np.vstack([pts[-2:-1], pts[:-2]]), pts[1:]
+        est = _quadratic_tangents(prev, pts[:-1], nxt)
+        est = np.vstack([est, est[:1]])
+    else:
+        est = np.empty_like(pts)
+        est[1:-1] = _quadratic_tangents(pts[:-2], pts[1:-1], pts[2:])
+        est[0] = _end_tangent(pts[0], pts[1], pts[2])
+        est[-1] = -_end_tangent(pts[-1], pts[-2], pts[-3])
+    if tan is None:
+        return pts, est
+    # Exact tangents (e.g. from the surface normal) only need their direction of travel fixed.
+    tan = _unit_rows(tan)
+    sign = np.where(np.einsum("ij,ij->i", tan, est) < 0, -1.0, 1.0)
+    tan = tan * sign[:, None]
+    bad = np.linalg.norm(tan, axis=1) < 0.5
+    tan[bad] = est[bad]
+    return pts, tan
+
+
+def _bernstein(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     s = 1.0 - u
-    out = np.empty((len(u), 4))
-    out[:, 0], out[:, 1], out[:, 2], out[:, 3] = s * s * s, 3 * u * s * s, 3 * u * u * s, u * u * u
+    return s * s * s, 3 * u * s * s, 3 * u * u * s, u * u * u
+
+
+def _segment_sum(values: np.ndarray, seg: np.ndarray, n: int) -> np.ndarray:
+    return np.bincount(seg, weights=values, minlength=n)
+
+
+def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
+    """Least-squares cubics ``(S, 4, 2)`` with fixed end points and end tangent directions, all segments.
+
+    ``arc`` ``(S,)``: the polyline length of each segment; a handle longer than that (near-parallel end
+    tangents make the normal equations ill-conditioned) would loop far off between the points."""
+    n = len(P0)
+    b0, b1, b2, b3 = _bernstein(u)
+    c00 = _segment_sum(b1 * b1, seg, n)
+    c01 = _segment_sum(b1 * b2, seg, n) * np.einsum("ij,ij->i", T0, T1)
+    c11 = _segment_sum(b2 * b2, seg, n)
+    tmp = X - (b0 + b1)[:, None] * P0[seg] - (b2 + b3)[:, None] * P3[seg]
+    x0 = _segment_sum(b1 * np.einsum("ij,ij->i", tmp, T0[seg]), seg, n)
+    x1 = _segment_sum(b2 * np.einsum("ij,ij->i", tmp, T1[seg]), seg, n)
+    det = c00 * c11 - c01 * c01
+    ok = np.abs(det) > 1e-12
+    det = np.where(ok, det, 1.0)
+    a0 = np.where(ok, (x0 * c11 - x1 * c01) / det, -1.0)
+    a1 = np.where(ok, (c00 * x1 - c01 * x0) / det, -1.0)
+    chord = np.linalg.norm(P3 - P0, axis=1)
+    degenerate = (a0 < 1e-6 * chord) | (a1 < 1e-6 * chord) | (a0 > arc) | (a1 > arc)  # Wu/Barsky heuristic
+    a0 = np.where(degenerate, chord / 3, a0)
+    a1 = np.where(degenerate, chord / 3, a1)
+    return np.stack([P0, P0 + a0[:, None] * T0, P3 + a1[:, None] * T1, P3], axis=1)
+
+
+def _evaluate(ctrl: np.ndarray, seg: np.ndarray, u: np.ndarray) -> np.ndarray:
+    b0, b1, b2, b3 = _bernstein(u)
+    c = ctrl[seg]
+    return b0[:, None] * c[:, 0] + b1[:, None] * c[:, 1] + b2[:, None] * c[:, 2] + b3[:, None] * c[:, 3]
+
+
+def _newton(ctrl: np.ndarray, X: np.ndarray, seg: np.ndarray, u: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """One Newton step of each parameter towards its point's closest curve point (kept ordered per segment)."""
+    c = ctrl[seg]
+    q = _evaluate(ctrl, seg, u)
+    d1 = 3 * (c[:, 1:] - c[:, :-1])
+    d2 = 2 * (d1[:, 1:] - d1[:, :-1])
+    s, w = (1 - u)[:, None], u[:, None]
+    q1 = s * s * d1[:, 0] + 2 * s * w * d1[:, 1] + w * w * d1[:, 2]
+    q2 = s * d2[:, 0] + w * d2[:, 1]
+    num = np.einsum("ij,ij->i", q - X, q1)
+    den = np.einsum("ij,ij->i", q1, q1) + np.einsum("ij,ij->i", q - X, q2)
+    ok = np.abs(den) > 1e-12
+    out = np.clip(u - np.where(ok, num / np.where(ok, den, 1.0), 0.0), 0, 1)
+    # Running maximum within each segment: offset every segment so one global accumulate does it.
+    out = np.maximum.accumulate(out + 2.0 * seg) - 2.0 * seg
+    out[first] = 0.0
     return out
 
 
-def _chord_params(pts: np.ndarray) -> np.ndarray:
-    d = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
-    return d / d[-1] if d[-1] > 0 else np.linspace(0, 1, len(pts))
+def _worst_interior(err: np.ndarray, seg: np.ndarray, idx: np.ndarray, first: np.ndarray,
+                    counts: np.ndarray) -> np.ndarray:
+    """Per segment, the vertex index of its worst-fitted interior point."""
+    interior = err.copy()
+    interior[first] = -1.0
+    interior[first + counts - 1] = -1.0
+    order = np.lexsort((-interior, seg))  # per segment, the worst interior point first
+    return idx[order[first]]
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v)
-    return v / n if n > 1e-12 else v
+def _split(s: np.ndarray, e: np.ndarray, owner: np.ndarray, ratio: np.ndarray, worst_at: np.ndarray,
+           arc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Split failing segments ``[s, e]``: at the worst point when the error is within 16× the tolerance
+    (Schneider), else into ``k ≈ ratio^¼`` pieces of equal arc length (a cubic's error shrinks like the fourth
+    power of its length), which takes two or three rounds where halving would take eight."""
+    if len(s) == 0:
+        return s, e, owner
+    k = np.clip(np.ceil(ratio ** 0.25), 2, e - s).astype(int)
+    halve = k == 2
+    cut_seg = np.r_[np.flatnonzero(halve), np.repeat(np.flatnonzero(~halve), k[~halve] - 1)]
+    frac = np.r_[np.zeros(halve.sum()), np.concatenate([np.arange(1, n) / n for n in k[~halve]] or [np.zeros(0)])]
+    at = np.searchsorted(arc, arc[s[cut_seg]] + frac * (arc[e[cut_seg]] - arc[s[cut_seg]]))
+    at = np.where(np.arange(len(cut_seg)) < halve.sum(), worst_at[cut_seg], at)
+    at = np.clip(at, s[cut_seg] + 1, e[cut_seg] - 1)
+    # Boundaries of each segment in order, duplicates removed; consecutive ones become the new segments.
+    b_seg = np.r_[np.arange(len(s)), cut_seg, np.arange(len(s))]
+    b_at = np.r_[s, at, e]
+    order = np.lexsort((b_at, b_seg))
+    b_seg, b_at = b_seg[order], b_at[order]
+    fresh = np.r_[True, (np.diff(b_seg) != 0) | (np.diff(b_at) != 0)]
+    b_seg, b_at = b_seg[fresh], b_at[fresh]
+    pair = b_seg[:-1] == b_seg[1:]
+    return b_at[:-1][pair], b_at[1:][pair], owner[b_seg[:-1][pair]]
 
 
-def _tangent(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
-    """Unit tangent at ``p0`` of the quadratic through ``p0, p1, p2`` (chord-length spacing): second-order
-    accurate, where the secant ``p1 − p0`` leaves an error floor the fit can only meet by splitting."""
-    h1, h2 = np.linalg.norm(p1 - p0), np.linalg.norm(p2 - p1)
-    if h1 < 1e-12 or h2 < 1e-12:
-        return _unit(p1 - p0)
-    d = -(2 * h1 + h2) / (h1 * (h1 + h2)) * p0 + (h1 + h2) / (h1 * h2) * p1 - h1 / (h2 * (h1 + h2)) * p2
-    return _unit(d)
-
-
-def _center_tangent(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Unit tangent at ``b`` (pointing from ``a`` towards ``c``) of the quadratic through the three points."""
-    h1, h2 = np.linalg.norm(b - a), np.linalg.norm(c - b)
-    if h1 < 1e-12 or h2 < 1e-12:
-        return _unit(c - a)
-    d = -h2 / (h1 * (h1 + h2)) * a + (h2 - h1) / (h1 * h2) * b + h1 / (h2 * (h1 + h2)) * c
-    return _unit(d)
-
-
-def _fit_one(pts: np.ndarray, u: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
-    """Least-squares cubic with fixed end points and end tangent directions ``t0`` (out) and ``t1`` (in)."""
-    s = 1.0 - u
-    b0, b1, b2, b3 = s * s * s, 3 * u * s * s, 3 * u * u * s, u * u * u
-    p0, p3 = pts[0], pts[-1]
-    # A0 = b1 t0, A1 = b2 t1 (outer products); the 2x2 normal equations in closed form.
-    c00 = (b1 @ b1) * (t0 @ t0)
-    c01 = (b1 @ b2) * (t0 @ t1)
-    c11 = (b2 @ b2) * (t1 @ t1)
-    tmp = pts - np.outer(b0 + b1, p0) - np.outer(b2 + b3, p3)
-    x0 = b1 @ (tmp @ t0)
-    x1 = b2 @ (tmp @ t1)
-    det = c00 * c11 - c01 * c01
-    seg_len = float(np.hypot(*(p3 - p0)))
-    if abs(det) > 1e-12:
-        a0, a1 = (x0 * c11 - x1 * c01) / det, (c00 * x1 - c01 * x0) / det
-    else:
-        a0 = a1 = -1.0
-    if a0 < 1e-6 * seg_len or a1 < 1e-6 * seg_len:  # degenerate: Wu/Barsky heuristic
-        a0 = a1 = seg_len / 3
-    return np.array([p0, p0 + a0 * t0, p3 + a1 * t1, p3])
-
-
-def _reparameterise(ctrl: np.ndarray, pts: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """One Newton step of each parameter towards the point's closest curve point."""
-    B = bernstein(u)
-    q = B @ ctrl
-    d1 = 3 * (ctrl[1:] - ctrl[:-1])
-    d2 = 2 * (d1[1:] - d1[:-1])
-    s = 1 - u[:, None]
-    uu = u[:, None]
-    q1 = s**2 * d1[0] + 2 * s * uu * d1[1] + uu**2 * d1[2]
-    q2 = s * d2[0] + uu * d2[1]
-    num = np.sum((q - pts) * q1, axis=1)
-    den = np.sum(q1 * q1 + (q - pts) * q2, axis=1)
-    step = np.where(np.abs(den) > 1e-12, num / np.where(np.abs(den) > 1e-12, den, 1.0), 0.0)
-    out = np.clip(u - step, 0, 1)
-    return np.maximum.accumulate(out)  # keep parameters ordered
-
-
-def _max_error(ctrl: np.ndarray, pts: np.ndarray, u: np.ndarray) -> tuple[float, int]:
-    d = bernstein(u) @ ctrl - pts
-    err2 = d[:, 0] ** 2 + d[:, 1] ** 2
-    i = int(np.argmax(err2))
-    return float(np.sqrt(err2[i])), i
-
-
-def fit_cubics(points: np.ndarray, tolerance: float, closed: bool = False, max_depth: int = 24) -> np.ndarray:
-    """Fit a polyline with cubic Béziers whose distance to every input point is ≤ ``tolerance``.
+def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[bool] | None = None,
+                    tangents: list[np.ndarray | None] | None = None, max_rounds: int = _MAX_ROUNDS) -> list[np.ndarray]:
+    """Fit each polyline with consecutive cubics within ``tolerance`` of every vertex.
 
     Args:
-        points: ``(P, 2)`` polyline (``P ≥ 2``); ``closed`` means the last point joins the first.
+        polylines: ``(P_i, 2)`` arrays, ``P_i ≥ 1``.
         tolerance: maximum distance in the points' units.
+        closed: per polyline, whether the last point joins the first.
+        tangents: per polyline, optional exact tangent directions ``(P_i, 2)`` at the vertices (either sign;
+            the direction of travel is taken from the points); estimated from the points where ``None``.
     Returns:
-        ``(K, 4, 2)`` control points of consecutive cubics (``K ≥ 1``).
+        Per polyline, ``(K_i, 4, 2)`` control points of consecutive cubics, ``K_i ≥ 1``, joined with
+        tangent continuity at every split.
+    """
+    closed = closed or [False] * len(polylines)
+    tangents = tangents or [None] * len(polylines)
+    prepared = [_prepare(p, c, t) for p, c, t in zip(polylines, closed, tangents)]
+    if not prepared:
+        return []
+    sizes = np.array([len(p) for p, _ in prepared])
+    starts = np.r_[0, np.cumsum(sizes)[:-1]]
+    X = np.concatenate([p for p, _ in prepared])
+    T = np.concatenate([t for _, t in prepared])
+    # Cumulative chord length over the whole array: differences within a polyline are its arc lengths.
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+
+    s, e = starts.copy(), starts + sizes - 1  # open segments: vertex index ranges [s, e]
+    owner = np.arange(len(prepared))
+    done_s, done_e, done_owner, done_ctrl = [], [], [], []
+    for round_ in range(max_rounds + 1):
+        if len(s) == 0:
+            break
+        short = e - s <= 1  # no interior point: the cubic follows the end tangents over a third of the chord
+        if short.any():
+            ss, es = s[short], e[short]
+            d = np.linalg.norm(X[es] - X[ss], axis=1, keepdims=True) / 3
+            done_ctrl.append(np.stack([X[ss], X[ss] + d * T[ss], X[es] - d * T[es], X[es]], axis=1))
+            done_s.append(ss), done_e.append(es), done_owner.append(owner[short])
+            s, e, owner = s[~short], e[~short], owner[~short]
+            if len(s) == 0:
+                break
+        counts = e - s + 1
+        seg = np.repeat(np.arange(len(s)), counts)
+        first = np.r_[0, np.cumsum(counts)[:-1]]
+        idx = np.arange(len(seg)) - first[seg] + s[seg]
+        Xs = X[idx]
+        span = arc[e] - arc[s]
+        u = (arc[idx] - arc[s][seg]) / np.where(span > 0, span, 1.0)[seg]
+        P0, P3, T0, T1 = X[s], X[e], T[s], -T[e]
+        ctrl = _fit_segments(Xs, seg, u, P0, P3, T0, T1, span)
+        err = np.linalg.norm(_evaluate(ctrl, seg, u) - Xs, axis=1)
+        worst = np.full(len(s), -1.0)
+        np.maximum.at(worst, seg, err)
+        near = (worst > tolerance) & (worst <= 16 * tolerance)  # close: improve the parameters first
+        if near.any():
+            for _ in range(_NEWTON_STEPS):
+                pick = near[seg]
+                u_new = np.where(pick, _newton(ctrl, Xs, seg, u, first), u)
+                ctrl_new = _fit_segments(Xs, seg, u_new, P0, P3, T0, T1, span)
+                err_new = np.linalg.norm(_evaluate(ctrl_new, seg, u_new) - Xs, axis=1)
+                worst_new = np.full(len(s), -1.0)
+                np.maximum.at(worst_new, seg, err_new)
+                better = near & (worst_new < worst)
+                ctrl[better], worst[better] = ctrl_new[better], worst_new[better]
+                u, err = np.where(better[seg], u_new, u), np.where(better[seg], err_new, err)
+                near &= better & (worst > tolerance)
+                if not near.any():
+                    break
+        ok = (worst <= tolerance) | (round_ == max_rounds)
+        done_ctrl.append(ctrl[ok]), done_s.append(s[ok]), done_e.append(e[ok]), done_owner.append(owner[ok])
+        worst_at = _worst_interior(err, seg, idx, first, counts)
+        s, e, owner = _split(s[~ok], e[~ok], owner[~ok], worst[~ok] / tolerance, worst_at[~ok], arc)
+
+    ctrl = np.concatenate(done_ctrl)
+    order = np.lexsort((np.concatenate(done_s), np.concatenate(done_owner)))
+    owners = np.concatenate(done_owner)[order]
+    ctrl = ctrl[order]
+    out = np.split(ctrl, np.flatnonzero(np.diff(owners)) + 1)
+    return out
+
+
+def fit_cubics(points: np.ndarray, tolerance: float, closed: bool = False,
+               tangents: np.ndarray | None = None) -> np.ndarray:
+    """Fit one polyline ``(P, 2)`` with cubic Béziers ``(K, 4, 2)`` within ``tolerance`` of every point.
 
     >>> pts = np.stack([np.linspace(0, 1, 20), np.linspace(0, 1, 20) ** 2], 1)
     >>> segs = fit_cubics(pts, 1e-2)
     >>> len(segs), bool(np.allclose(segs[0, 0], pts[0]) and np.allclose(segs[-1, -1], pts[-1]))
     (1, True)
     """
-    pts = np.asarray(points, dtype=np.float64)
-    keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
-    pts = pts[keep]
-    if closed and len(pts) > 2 and np.linalg.norm(pts[0] - pts[-1]) > 1e-9:
-        pts = np.vstack([pts, pts[:1]])
-    if len(pts) < 2:
-        p = pts[0] if len(pts) else np.zeros(2)
-        return np.stack([p, p, p, p])[None]
-    if closed and len(pts) > 3:
-        t0 = _center_tangent(pts[-2], pts[0], pts[1])
-        return np.array(_fit_rec(pts, t0, -t0, tolerance, max_depth))
-    if len(pts) >= 3:
-        return np.array(_fit_rec(pts, _tangent(pts[0], pts[1], pts[2]), _tangent(pts[-1], pts[-2], pts[-3]),
-                                 tolerance, max_depth))
-    return np.array(_fit_rec(pts, _unit(pts[1] - pts[0]), _unit(pts[0] - pts[1]), tolerance, max_depth))
-
-
-def _fit_rec(pts: np.ndarray, t0: np.ndarray, t1: np.ndarray, tol: float, depth: int) -> list[np.ndarray]:
-    if len(pts) == 2:
-        d = np.linalg.norm(pts[1] - pts[0]) / 3
-        return [np.stack([pts[0], pts[0] + d * t0, pts[1] + d * t1, pts[1]])]
-    u = _chord_params(pts)
-    ctrl = _fit_one(pts, u, t0, t1)
-    err, split = _max_error(ctrl, pts, u)
-    if err <= tol:
-        return [ctrl]
-    if err <= 16 * tol:  # close: try improving the parameterisation before splitting
-        for _ in range(6):
-            u = _reparameterise(ctrl, pts, u)
-            ctrl = _fit_one(pts, u, t0, t1)
-            prev, (err, split) = err, _max_error(ctrl, pts, u)
-            if err <= tol:
-                return [ctrl]
-            if err > 0.9 * prev:  # Newton has stalled: split instead
-                break
-    if depth <= 0:
-        return [ctrl]
-    split = min(max(split, 1), len(pts) - 2)
-    tc = -_center_tangent(pts[split - 1], pts[split], pts[split + 1])
-    return _fit_rec(pts[: split + 1], t0, tc, tol, depth - 1) + _fit_rec(pts[split:], -tc, t1, tol, depth - 1)
+    return fit_cubics_many([points], tolerance, [closed], [tangents])[0]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cameras import Camera
-from ..strokes.bezier import bernstein, bezier_derivative, bezier_points, bezier_segment
+from ..strokes.bezier import bernstein, bezier_segment
 
 _CHECK = np.linspace(0, 1, 17)[1:-1]
 _MAX_DEPTH = 16
@@ -21,6 +21,8 @@ _MAX_DEPTH = 16
 def depth_intervals(control: np.ndarray, camera: Camera, near: float) -> list[tuple[float, float]]:
     """Parameter intervals of a curve ``(4, 3)`` whose camera depth exceeds ``near``."""
     z = (control @ camera.R.T + camera.t)[:, 2] - near
+    if z.min() > 0:  # the curve lies in the hull of its control points: wholly in front
+        return [(0.0, 1.0)]
     # Bernstein → power basis of z(t) − near, then its real roots in (0, 1).
     M = np.array([[1, 0, 0, 0], [-3, 3, 0, 0], [3, -6, 3, 0], [-1, 3, -3, 1]], float)
     coeffs = (M @ z)[::-1]
@@ -35,18 +37,6 @@ def depth_intervals(control: np.ndarray, camera: Camera, near: float) -> list[tu
     return out
 
 
-def _project_with_derivative(camera: Camera, control: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels ``π(B(t))`` and their parameter derivatives ``(T, 2)`` each."""
-    P = bezier_points(control, t) @ camera.R.T + camera.t
-    D = bezier_derivative(control, t) @ camera.R.T
-    f = np.array([camera.fx, camera.fy])
-    c = np.array([camera.cx, camera.cy])
-    if camera.projection == "orthographic":
-        return P[:, :2] * f + c, D[:, :2] * f
-    z = P[:, 2:3]
-    return P[:, :2] / z * f + c, (D[:, :2] * z - P[:, :2] * D[:, 2:3]) / z**2 * f
-
-
 def project_curve(control: np.ndarray, camera: Camera, a: float = 0.0, b: float = 1.0,
                   tolerance: float = 0.05, return_breaks: bool = False):
     """2D cubic pieces ``(K, 4, 2)`` drawing the curve ``control (4, 3)`` between parameters ``a`` and ``b``.
@@ -54,39 +44,79 @@ def project_curve(control: np.ndarray, camera: Camera, a: float = 0.0, b: float 
     The caller guarantees positive depth on ``[a, b]`` (see :func:`depth_intervals`). With ``return_breaks``
     also returns the ``K + 1`` curve parameters where the pieces meet.
     """
+    (pieces, breaks), = project_curves(control[None], [(0, a, b)], camera, tolerance)
+    return (pieces, breaks) if return_breaks else pieces
+
+
+def project_curves(controls: np.ndarray, intervals: list[tuple[int, float, float]], camera: Camera,
+                   tolerance: float = 0.05) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`project_curve` for many ``(curve index, a, b)`` intervals of ``controls (N, 4, 3)`` at once.
+
+    The adaptive splitting runs breadth first over all intervals together. Returns per interval the pieces
+    ``(K, 4, 2)`` and the ``K + 1`` parameters where they meet.
+    """
+    if not intervals:
+        return []
+    owner = np.array([i for i, _, _ in intervals])
+    lo = np.array([x for _, x, _ in intervals], float)
+    hi = np.array([x for _, _, x in intervals], float)
     if camera.projection == "orthographic":
-        seg = bezier_segment(control, a, b) if (a, b) != (0.0, 1.0) else control
-        out = camera.project(seg)[0][None]
-        return (out, np.array([a, b])) if return_breaks else out
-    pieces: list[np.ndarray] = []
-    breaks = [a]
-    stack = [(a, b, 0)]
-    while stack:
-        lo, hi, depth = stack.pop()
-        pts, ders = _project_with_derivative(camera, control, np.r_[lo, hi, lo + _CHECK * (hi - lo)])
-        h = (hi - lo) / 3
-        cubic = np.stack([pts[0], pts[0] + h * ders[0], pts[1] - h * ders[1], pts[1]])
-        truth = pts[2:]
-        err = np.linalg.norm(bernstein(_CHECK) @ cubic - truth, axis=1).max()
-        if err <= tolerance or depth >= _MAX_DEPTH:
-            pieces.append(cubic)
-            breaks.append(hi)
-        else:
-            mid = 0.5 * (lo + hi)
-            stack.append((mid, hi, depth + 1))  # pushed first so the first half is drawn first
-            stack.append((lo, mid, depth + 1))
-    return (np.array(pieces), np.array(breaks)) if return_breaks else np.array(pieces)
+        out = []
+        for n, a, b in intervals:
+            seg = bezier_segment(controls[n], a, b) if (a, b) != (0.0, 1.0) else controls[n]
+            out.append((camera.project(seg)[0][None], np.array([a, b])))
+        return out
+    which = np.arange(len(intervals))  # the interval each open piece belongs to
+    done_w, done_lo, done_hi, done_c = [], [], [], []
+    f = np.array([camera.fx, camera.fy])
+    c = np.array([camera.cx, camera.cy])
+    ts = np.r_[0.0, 1.0, _CHECK]
+    B = bernstein(ts)
+    for depth in range(_MAX_DEPTH + 1):
+        ctrl = controls[owner[which]] @ camera.R.T + camera.t  # (K, 4, 3) in camera space
+        t = lo[:, None] + (hi - lo)[:, None] * ts  # (K, T)
+        # Pixels and their derivatives along the piece's own parameter s ∈ [0, 1] (d/ds = (hi − lo) d/dt).
+        Bt, dBt = bernstein(t), _bernstein_derivative(t)
+        P = np.einsum("kts,ksd->ktd", Bt, ctrl)
+        D = np.einsum("kts,ksd->ktd", dBt, ctrl) * (hi - lo)[:, None, None]
+        z = P[..., 2:3]
+        uv = P[..., :2] / z * f + c
+        duv = (D[..., :2] * z - P[..., :2] * D[..., 2:3]) / z**2 * f
+        cubic = np.stack([uv[:, 0], uv[:, 0] + duv[:, 0] / 3, uv[:, 1] - duv[:, 1] / 3, uv[:, 1]], axis=1)
+        err = np.linalg.norm(np.einsum("ts,ksd->ktd", B[2:], cubic) - uv[:, 2:], axis=-1).max(axis=1)
+        ok = (err <= tolerance) | (depth == _MAX_DEPTH)
+        done_w.append(which[ok]), done_lo.append(lo[ok]), done_hi.append(hi[ok]), done_c.append(cubic[ok])
+        mid = 0.5 * (lo + hi)
+        bad = ~ok
+        which = np.r_[which[bad], which[bad]]
+        lo, hi = np.r_[lo[bad], mid[bad]], np.r_[mid[bad], hi[bad]]
+        if len(which) == 0:
+            break
+    w, a, b, cub = (np.concatenate(x) for x in (done_w, done_lo, done_hi, done_c))
+    order = np.lexsort((a, w))
+    w, a, b, cub = w[order], a[order], b[order], cub[order]
+    cuts = np.flatnonzero(np.diff(w)) + 1
+    return [(pc, np.r_[pa[0], pb]) for pc, pa, pb in zip(np.split(cub, cuts), np.split(a, cuts), np.split(b, cuts))]
+
+
+def _bernstein_derivative(t: np.ndarray) -> np.ndarray:
+    """Derivatives of the cubic Bernstein basis, ``(..., 4)``."""
+    s = 1.0 - t
+    return np.stack([-3 * s * s, 3 * s * s - 6 * t * s, 6 * t * s - 3 * t * t, 3 * t * t], axis=-1)
 
 
 def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, float]], is_hidden,
-                    samples: int = 48, refine: int = 8) -> dict[int, list[tuple[float, float, bool]]]:
+                    samples: int = 48, refine: int = 2, split: int = 16) -> dict[int, list[tuple[float, float, bool]]]:
     """Split parameter intervals of curves into ``(start, end, hidden)`` runs.
 
     Args:
         controls: ``(N, 4, 3)`` curves.
         intervals: ``(curve index, a, b)`` triples.
         is_hidden: world points ``(P, 3)`` → bool ``(P,)``; called once for the samples of all intervals and
-            once per bisection step for all state changes together.
+            once per refinement round for all state changes together.
+        refine, split: each round cuts the bracket around every state change into ``split`` parts (a
+            ``split``-ary search: two rounds of 16 locate a change as well as eight bisection steps, in a
+            quarter of the calls).
     Returns:
         Runs per curve index, in parameter order.
     """
@@ -104,11 +134,17 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     lo, hi = t[ci, cj], t[ci, cj + 1]
     left = state[ci, cj]
     ctrl = controls[idx[ci]]
+    inner = np.arange(1, split) / split
     for _ in range(refine if len(ci) else 0):
-        mid = 0.5 * (lo + hi)
-        p = np.einsum("ik,ikd->id", bernstein(mid), ctrl)
-        same = is_hidden(p) == left
-        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+        tm = lo[:, None] + (hi - lo)[:, None] * inner  # (C, split − 1)
+        p = np.einsum("csk,ckd->csd", bernstein(tm), ctrl)
+        same = is_hidden(p.reshape(-1, 3)).reshape(tm.shape) == left[:, None]
+        # The first sample that differs from the left state ends the bracket (the state changes once inside).
+        first = np.where(same.all(axis=1), split - 1, np.argmin(same, axis=1))
+        rows = np.arange(len(tm))
+        new_lo = np.where(first > 0, tm[rows, np.maximum(first - 1, 0)], lo)
+        hi = np.where(first < split - 1, tm[rows, np.minimum(first, split - 2)], hi)
+        lo = new_lo
     cut = 0.5 * (lo + hi)
     runs: dict[int, list[tuple[float, float, bool]]] = {}
     for k in range(len(idx)):

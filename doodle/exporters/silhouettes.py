@@ -8,12 +8,14 @@ are dropped: what remains is the union's contour generator.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from skimage import measure
 
 from ..cameras import Camera
 from ..strokes.model import SuperquadricSet
-from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix, surface_points, world_to_local
+from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix, surface_points_at, world_to_local
 
 
 def angle_warp(phi: np.ndarray, e: float) -> np.ndarray:
@@ -35,7 +37,9 @@ def _grid(n_eta: int, n_omega: int, shape: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def chain_polylines(polys: list[np.ndarray], tol: float) -> list[np.ndarray]:
-    """Join polylines whose end points coincide (within ``tol``) into longer ones."""
+    """Join polylines whose end points coincide (within ``tol``) into longer ones.
+
+    Only the first three columns are positions; further columns (normals) travel with them."""
     polys = [p for p in polys if len(p) >= 2]
     changed = True
     while changed:
@@ -45,9 +49,9 @@ def chain_polylines(polys: list[np.ndarray], tol: float) -> list[np.ndarray]:
                 if i == j:
                     continue
                 a, b = polys[i], polys[j]
-                if np.linalg.norm(a[-1] - b[0]) < tol:
+                if np.linalg.norm(a[-1, :3] - b[0, :3]) < tol:
                     polys[i] = np.vstack([a, b[1:]])
-                elif np.linalg.norm(a[-1] - b[-1]) < tol:
+                elif np.linalg.norm(a[-1, :3] - b[-1, :3]) < tol:
                     polys[i] = np.vstack([a, b[::-1][1:]])
                 else:
                     continue
@@ -84,64 +88,97 @@ def _contour_function(p: np.ndarray, n: np.ndarray, camera: Camera) -> np.ndarra
     return np.einsum("...k,...k->...", n, p - camera.center)
 
 
-def _refine(c: np.ndarray, g: np.ndarray, eta: np.ndarray, omega: np.ndarray, sq: SuperquadricSet, i: int,
-            R: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
-    """Marching-squares vertices ``(K, 2)`` in grid units → ``(η, ω)`` with one regula-falsi step on the exact
-    ``g`` along each vertex's grid edge: linear interpolation alone leaves the vertices a fraction of a pixel
-    off the true contour, which the cubic fit would then chase."""
+@dataclass(frozen=True)
+class SurfaceGrids:
+    """Every superquadric sampled on its parametric grid in world coordinates. View independent, so computed
+    once per stroke set and reused for every camera."""
+
+    eta: np.ndarray
+    """``(M, n_eta)`` latitudes (warped per superquadric, see :func:`angle_warp`)."""
+    omega: np.ndarray
+    """``(M, n_omega + 1)`` longitudes; the last column repeats the first."""
+    points: np.ndarray
+    """``(M, n_eta, n_omega + 1, 3)``."""
+    normals: np.ndarray
+
+
+_GRID_CACHE: dict[tuple, SurfaceGrids] = {}
+
+
+def surface_grids(sq: SuperquadricSet, n_eta: int, n_omega: int) -> SurfaceGrids:
+    """Parametric grids of every superquadric, cached by value (drawing 36 views evaluates them once)."""
+    key = (sq.scale.tobytes(), sq.shape.tobytes(), sq.rotation.tobytes(), sq.translation.tobytes(), n_eta, n_omega)
+    if key not in _GRID_CACHE:
+        grids = [_grid(n_eta, n_omega, sq.shape[i]) for i in range(len(sq))]
+        eta, omega = np.stack([g[0] for g in grids]), np.stack([g[1] for g in grids])
+        p, n = surface_points_at(eta, omega, sq.scale[:, None, None], sq.shape[:, None, None])
+        R = quaternion_to_matrix(sq.rotation)[:, None]  # (M, 1, 3, 3)
+        if len(_GRID_CACHE) >= 4:
+            _GRID_CACHE.pop(next(iter(_GRID_CACHE)))
+        _GRID_CACHE[key] = SurfaceGrids(eta[:, :, 0], omega[:, 0], p @ R.transpose(0, 1, 3, 2) + sq.translation[:, None, None],
+                                        n @ R.transpose(0, 1, 3, 2))
+    return _GRID_CACHE[key]
+
+
+def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: list[np.ndarray], sq: SuperquadricSet,
+            camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """Marching-squares vertices ``(K, 2)`` in grid units on superquadrics ``i`` ``(K,)`` → world surface points
+    and unit normals ``(K, 3)`` after one regula-falsi step on the exact ``g`` along each vertex's grid edge:
+    linear interpolation alone leaves the vertices a fraction of a pixel off the true contour, which the
+    cubic fit would then chase."""
+    n_eta, n_omega = grids.eta.shape[1], grids.omega.shape[1]
     on_row_edge = np.abs(c[:, 0] - np.round(c[:, 0])) > 1e-9  # the vertex moves along η (between two rows)
-    r_lo = np.floor(c[:, 0]).astype(int).clip(0, len(eta) - 2)
-    c_lo = np.floor(c[:, 1]).astype(int).clip(0, len(omega) - 2)
+    r_lo = np.floor(c[:, 0]).astype(int).clip(0, n_eta - 2)
+    c_lo = np.floor(c[:, 1]).astype(int).clip(0, n_omega - 2)
     r_at, c_at = np.round(c[:, 0]).astype(int), np.round(c[:, 1]).astype(int)  # exact on the other axis
     ra = np.where(on_row_edge, r_lo, r_at)
     rb = np.where(on_row_edge, r_lo + 1, r_at)
     ca = np.where(on_row_edge, c_at, c_lo)
     cb = np.where(on_row_edge, c_at, c_lo + 1)
-    ea, wa, eb, wb = eta[ra], omega[ca], eta[rb], omega[cb]
-    ga, gb = g[ra, ca], g[rb, cb]
+    ea, wa, eb, wb = grids.eta[i, ra], grids.omega[i, ca], grids.eta[i, rb], grids.omega[i, cb]
+    g_all = np.stack(g)
+    ga, gb = g_all[i, ra, ca], g_all[i, rb, cb]
     s = np.clip(np.where(on_row_edge, c[:, 0] - ra, c[:, 1] - ca), 0, 1)
-    for _ in range(2):
-        e, w = ea + s * (eb - ea), wa + s * (wb - wa)
-        pl, nl = surface_points(e, w, sq.scale[i:i + 1], sq.shape[i:i + 1])
-        gm = _contour_function(pl[0] @ R.T + sq.translation[i], nl[0] @ R.T, camera)
-        left = np.sign(gm) == np.sign(ga)  # the root lies between the vertex and b
-        s_lo, s_hi = np.where(left, s, 0.0), np.where(left, 1.0, s)
-        g_lo, g_hi = np.where(left, gm, ga), np.where(left, gb, gm)
-        denom = np.where(np.abs(g_hi - g_lo) > 1e-300, g_hi - g_lo, 1.0)
-        s = np.clip(s_lo - g_lo * (s_hi - s_lo) / denom, s_lo, s_hi)
-    return ea + s * (eb - ea), wa + s * (wb - wa)
+    R = quaternion_to_matrix(sq.rotation)[i]  # (K, 3, 3)
+
+    def surface(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p, n = surface_points_at(ea + s * (eb - ea), wa + s * (wb - wa), sq.scale[i], sq.shape[i])
+        return (R @ p[:, :, None])[:, :, 0] + sq.translation[i], (R @ n[:, :, None])[:, :, 0]
+
+    p, n = surface(s)
+    gm = _contour_function(p, n, camera)
+    left = np.sign(gm) == np.sign(ga)  # the root lies between the vertex and b
+    s_lo, s_hi = np.where(left, s, 0.0), np.where(left, 1.0, s)
+    g_lo, g_hi = np.where(left, gm, ga), np.where(left, gb, gm)
+    denom = np.where(np.abs(g_hi - g_lo) > 1e-300, g_hi - g_lo, 1.0)
+    return surface(np.clip(s_lo - g_lo * (s_hi - s_lo) / denom, s_lo, s_hi))
 
 
 def contour_polylines(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_omega: int = 144,
-                      margin: float = 1e-4) -> list[tuple[int, np.ndarray]]:
-    """The union's contour for ``camera`` as ``(superquadric index, (K, 3) world polyline)`` pairs.
+                      margin: float = 1e-4) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """The union's contour for ``camera`` as ``(superquadric index, (K, 3) world polyline, (K, 3) unit surface
+    normals)`` triples.
 
     Polylines are closed when their first and last vertices coincide.
     """
-    out: list[tuple[int, np.ndarray]] = []
     if len(sq) == 0:
-        return out
-    R = quaternion_to_matrix(sq.rotation)
+        return []
+    grids = surface_grids(sq, n_eta, n_omega)
+    g = [_contour_function(grids.points[i], grids.normals[i], camera) for i in range(len(sq))]
+    contours = [(i, c) for i in range(len(sq)) for c in measure.find_contours(g[i], 0.0) if len(c) >= 2]
+    if not contours:
+        return []
+    owner = np.concatenate([np.full(len(c), i) for i, c in contours])
+    p, n = _refine(np.concatenate([c for _, c in contours]), owner, grids, g, sq, camera)
+    # Vertices inside another superquadric are not on the union's contour.
+    lf = log_inside_outside(world_to_local(p, sq.rotation, sq.translation), sq.scale, sq.shape)  # (M, K)
+    lf[owner, np.arange(len(p))] = np.inf
+    keep = lf.min(axis=0) >= -margin
+    cuts = np.cumsum([len(c) for _, c in contours])[:-1]
+    pieces = [(i, x) for (i, _), x in zip(contours, np.split(np.hstack([p, n, keep[:, None]]), cuts))]
+    out: list[tuple[int, np.ndarray, np.ndarray]] = []
     for i in range(len(sq)):
-        eta, omega = _grid(n_eta, n_omega, sq.shape[i])
-        p_loc, n_loc = surface_points(eta, omega, sq.scale[i:i + 1], sq.shape[i:i + 1])
-        p = p_loc[0] @ R[i].T + sq.translation[i]
-        n = n_loc[0] @ R[i].T
-        g = _contour_function(p, n, camera)
-        polys = []
-        for c in measure.find_contours(g, 0.0):
-            e, w = _refine(c, g, eta[:, 0], omega[0], sq, i, R[i], camera)
-            xl, _ = surface_points(e, w, sq.scale[i:i + 1], sq.shape[i:i + 1])
-            polys.append(xl[0] @ R[i].T + sq.translation[i])
         tol = 1e-6 * float(np.linalg.norm(sq.scale[i]))
-        polys = chain_polylines(polys, tol)
-        others = np.flatnonzero(np.arange(len(sq)) != i)
-        for poly in polys:
-            if len(others):
-                lf = log_inside_outside(world_to_local(poly, sq.rotation[others], sq.translation[others]),
-                                        sq.scale[others], sq.shape[others]).min(axis=0)
-                runs = split_runs(poly, lf >= -margin)
-            else:
-                runs = [poly]
-            out.extend((i, r) for r in runs)
+        for piece in chain_polylines([x for j, x in pieces if j == i], tol):
+            out.extend((i, r[:, :3], r[:, 3:6]) for r in split_runs(piece, piece[:, 6] > 0.5))
     return out

@@ -1,8 +1,8 @@
 """Ray marching against the superquadric union: hidden-line tests and union silhouettes (masks).
 
-A segment is blocked when a point strictly inside the union (``log f < 0``) lies on it. Only the part of the
-segment inside each superquadric's bounding sphere (radius ``|a|``: ``f ≤ 1`` implies ``|x_i| ≤ a_i``) is
-sampled, so cost scales with what the rays actually pass near.
+A segment is blocked when a point strictly inside the union (``log f < 0``) lies on it. Per superquadric, only
+segments that cross its bounding box (``f ≤ 1`` implies ``|x_i| ≤ a_i``) and miss a body it surely contains
+are sampled, and only inside the box, so cost scales with what the rays actually graze.
 """
 
 from __future__ import annotations
@@ -14,37 +14,75 @@ from ..strokes.model import SuperquadricSet
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
 
 
-def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet, samples: int = 32) -> np.ndarray:
-    """Whether each segment ``origins[k] → ends[k]`` ``(P, 3)`` passes through the union's interior, ``(P,)``."""
+def _slab(o: np.ndarray, u: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ray parameters ``(t_in, t_out)`` where rays ``o + t u`` (local frames, ``(..., 3)``) cross the boxes
+    ``|x_i| ≤ half_i``; ``t_in > t_out`` when they miss."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.where(np.abs(u) > 1e-12, u, 1e-12)
+        ta, tb = (-half - o) * inv, (half - o) * inv
+    lo, hi = np.minimum(ta, tb), np.maximum(ta, tb)
+    # Explicit per-axis max/min: numpy reductions over a length-3 last axis are several times slower.
+    return (np.maximum(np.maximum(lo[..., 0], lo[..., 1]), lo[..., 2]),
+            np.minimum(np.minimum(hi[..., 0], hi[..., 1]), hi[..., 2]))
+
+
+def _inner_hit(o: np.ndarray, u: np.ndarray, L: np.ndarray, scale: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """Segments ``o + t u``, ``0 ≤ t ≤ L`` (local frames, ``(K, 3)``) that surely enter their superquadric
+    (``scale``, ``shape`` ``(K, ·)``) because they enter a body it contains: every ε ≤ 2 superquadric contains
+    the octahedron ``Σ|x_i|/a_i ≤ 1``; with both ε ≤ 1 it also contains the ellipsoid ``Σ(x_i/a_i)² ≤ 1``."""
+    o, u = o / scale, u / scale
+    # Ellipsoid: the quadratic |o + t u|² − 1 at its minimum over [0, L].
+    a, b, c = (u * u).sum(axis=1), (o * u).sum(axis=1), (o * o).sum(axis=1) - 1.0
+    t = np.clip(-b / np.maximum(a, 1e-30), 0.0, L)
+    ellipsoid = (shape.max(axis=1) <= 1.0) & (a * t * t + 2 * b * t + c < 0)
+    # Octahedron: Σ|o_i + t u_i| is convex and piecewise linear in t; its minimum is at an end or a kink.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kinks = np.clip(-o / np.where(np.abs(u) > 1e-12, u, 1e-12), 0.0, L[:, None])
+    t = np.concatenate([np.zeros((len(o), 1)), L[:, None], kinks], axis=1)  # (K, 5)
+    x = np.abs(o[:, None, :] + t[..., None] * u[:, None, :])
+    octahedron = (x[..., 0] + x[..., 1] + x[..., 2] < 1.0).any(axis=1)
+    return ellipsoid | octahedron
+
+
+def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet, samples: int = 32,
+                     exclude: np.ndarray | None = None, chunk: int = 1 << 15) -> np.ndarray:
+    """Whether each segment ``origins[k] → ends[k]`` ``(P, 3)`` passes through the union's interior, ``(P,)``.
+
+    ``exclude`` ``(P,)`` names one superquadric per segment to ignore (−1: none): a silhouette point cannot be
+    hidden by its own (convex) superquadric, whose surface its ray only grazes. All superquadrics are tested
+    at once (segment–superquadric pairs); ``chunk`` segments at a time bound the memory.
+    """
     P = len(origins)
-    blocked = np.zeros(P, bool)
     if len(sq) == 0 or P == 0:
-        return blocked
+        return np.zeros(P, bool)
+    if P > chunk:
+        return np.concatenate([
+            segments_blocked(origins[k:k + chunk], ends[k:k + chunk], sq, samples,
+                             None if exclude is None else exclude[k:k + chunk], chunk) for k in range(0, P, chunk)])
     d = ends - origins
     L = np.linalg.norm(d, axis=1)
     u = d / np.maximum(L, 1e-12)[:, None]
     R = quaternion_to_matrix(sq.rotation)  # (M, 3, 3) local → world
-    s = (np.arange(samples) + 0.5) / samples
-    for j in range(len(sq)):
-        rad = float(np.linalg.norm(sq.scale[j]))
-        oc = sq.translation[j] - origins
-        b = np.einsum("ij,ij->i", oc, u)
-        h2 = rad * rad - (np.einsum("ij,ij->i", oc, oc) - b * b)
-        t0 = np.maximum(b - np.sqrt(np.maximum(h2, 0)), 0.0)
-        t1 = np.minimum(b + np.sqrt(np.maximum(h2, 0)), L)
-        idx = np.flatnonzero((h2 > 0) & (t1 > t0) & ~blocked)
-        if len(idx) == 0:
-            continue
-        t = t0[idx, None] + (t1 - t0)[idx, None] * s  # (K, S)
-        q = origins[idx, None, :] + t[..., None] * u[idx, None, :]
-        local = (q - sq.translation[j]) @ R[j]
-        lf = log_inside_outside(local.reshape(1, -1, 3), sq.scale[j:j + 1], sq.shape[j:j + 1]).reshape(len(idx), samples)
-        blocked[idx[(lf < 0).any(axis=1)]] = True
+    o_loc = (origins[None] - sq.translation[:, None]) @ R  # (M, P, 3): row-vector form of Rᵀ(o − t)
+    u_loc = u[None] @ R
+    # f ≤ 1 implies |x_i| ≤ a_i: only segments crossing the box can be blocked, and only inside it.
+    t0, t1 = _slab(o_loc, u_loc, sq.scale[:, None, :])  # (M, P)
+    t0, t1 = np.maximum(t0, 0.0), np.minimum(t1, L)
+    candidate = t1 > t0
+    if exclude is not None:
+        candidate &= exclude[None, :] != np.arange(len(sq))[:, None]
+    j, p = np.nonzero(candidate)
+    o_loc, u_loc, t0, t1 = o_loc[j, p], u_loc[j, p], t0[j, p], t1[j, p]
+    blocked = np.zeros(P, bool)
+    blocked[p[_inner_hit(o_loc, u_loc, L[p], sq.scale[j], sq.shape[j])]] = True
+    todo = ~blocked[p]
+    j, p, o_loc, u_loc, t0, t1 = j[todo], p[todo], o_loc[todo], u_loc[todo], t0[todo], t1[todo]
+    if len(p):
+        t = t0[:, None] + (t1 - t0)[:, None] * ((np.arange(samples) + 0.5) / samples)  # (K, S)
+        local = o_loc[:, None, :] + t[..., None] * u_loc[:, None, :]
+        lf = log_inside_outside(local, sq.scale[j], sq.shape[j])  # (K, S): pair k is "superquadric" k
+        blocked[p[(lf < 0).any(axis=1)]] = True
     return blocked
-
-
-
-
 
 
 def ray_origins(camera: Camera, points: np.ndarray) -> np.ndarray:
@@ -55,7 +93,8 @@ def ray_origins(camera: Camera, points: np.ndarray) -> np.ndarray:
     return np.broadcast_to(camera.center, points.shape)
 
 
-def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: float, samples: int = 32) -> np.ndarray:
+def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: float, samples: int = 32,
+             exclude: np.ndarray | None = None) -> np.ndarray:
     """Points ``(P, 3)`` hidden from ``camera`` by the union, ``(P,)``.
 
     The march stops ``margin`` (scene units) short of each point, so points on or just under the union's
@@ -65,7 +104,7 @@ def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: fl
     d = points - origins
     L = np.linalg.norm(d, axis=1, keepdims=True)
     ends = origins + d * np.clip((L - margin) / np.maximum(L, 1e-12), 0, 1)
-    return segments_blocked(origins, ends, sq, samples)
+    return segments_blocked(origins, ends, sq, samples, exclude)
 
 
 def union_mask(sq: SuperquadricSet, camera: Camera, samples: int = 48, far: float | None = None) -> np.ndarray:

@@ -189,17 +189,25 @@ def surface_points(
     Returns:
         points ``(M, ..., 3)`` and unit normals ``(M, ..., 3)``.
     """
-    xp = ops(scale)
     extra = (None,) * eta.ndim
-    a = scale[(slice(None), *extra)]  # (M, 1.., 3)
-    e1 = shape[(slice(None), *extra, 0)]
-    e2 = shape[(slice(None), *extra, 1)]
+    return surface_points_at(eta, omega, scale[(slice(None), *extra)], shape[(slice(None), *extra)])
+
+
+def surface_points_at(
+    eta: torch.Tensor, omega: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`surface_points` with the superquadric given per point: ``eta``, ``omega`` ``(...)``, ``scale``
+    ``(..., 3)`` and ``shape`` ``(..., 2)`` broadcast together (points of many superquadrics in one call).
+
+    >>> import numpy as np
+    >>> p, n = surface_points_at(np.zeros(2), np.zeros(2), np.array([[1.0, 2, 3], [2, 2, 2]]), np.ones((2, 2)))
+    >>> p.tolist(), n.tolist()
+    ([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    """
+    xp = ops(scale)
+    e1, e2 = shape[..., 0], shape[..., 1]
     ce, se, co, so = xp.cos(eta), xp.sin(eta), xp.cos(omega), xp.sin(omega)
-    p = xp.stack(
-        [_signed_pow(ce, e1) * _signed_pow(co, e2), _signed_pow(ce, e1) * _signed_pow(so, e2), _signed_pow(se, e1)], -1
-    ) * a
-    n = xp.stack(
-        [_signed_pow(ce, 2 - e1) * _signed_pow(co, 2 - e2), _signed_pow(ce, 2 - e1) * _signed_pow(so, 2 - e2),
-         _signed_pow(se, 2 - e1)], -1
-    ) / a
+    c1, n1 = _signed_pow(ce, e1), _signed_pow(ce, 2 - e1)
+    p = xp.stack([c1 * _signed_pow(co, e2), c1 * _signed_pow(so, e2), _signed_pow(se, e1)], -1) * scale
+    n = xp.stack([n1 * _signed_pow(co, 2 - e2), n1 * _signed_pow(so, 2 - e2), _signed_pow(se, 2 - e1)], -1) / scale
     return p, n / xp.clip_min(xp.norm(n, -1, True), 1e-12)
