@@ -152,7 +152,9 @@ def _silhouette_samples(drawing):
 
 
 SHAPES = [(e1, e2) for e1 in (0.1, 0.5, 1.0, 1.5, 1.9) for e2 in (0.1, 1.0, 1.9)]
-QUICK = {(0.1, 0.1), (0.1, 1.9), (1.0, 1.0), (1.9, 0.1), (1.9, 1.9)}  # corners of the range + the ellipsoid
+# Corners of the range, the ellipsoid, and (1.9, 1.0): its pinched outline once drew a 200 px loop (a fitted
+# handle far longer than its piece when exact tangents turn sharply between two vertices).
+QUICK = {(0.1, 0.1), (0.1, 1.9), (1.0, 1.0), (1.9, 0.1), (1.9, 1.9), (1.9, 1.0)}
 SHAPE_PARAMS = [pytest.param(*s, marks=() if s in QUICK else pytest.mark.slow) for s in SHAPES]
 
 
