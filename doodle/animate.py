@@ -15,7 +15,7 @@ from PIL import Image
 from .atomic import atomic_path, write_text
 from .cameras import orbit_cameras
 from .errors import DoodleError
-from .exporters import DrawOptions, draw
+from .exporters import DrawOptions, draw_many
 from .exporters.export import render_many
 from .exporters.raster import svg_to_png
 from .exporters.svg import to_svg
@@ -73,7 +73,7 @@ def render_frames(strokes: StrokeSet, opt: AnimateOptions, progress: Callable[[i
         raise DoodleError(str(exc)) from None
 
     svgs, images = [], []
-    job = partial(_render_frame, strokes, style, dopt, opt.filters)
+    job = partial(_render_frames, strokes, style, dopt, opt.filters)
     for k, (svg, png) in enumerate(render_many(job, cams, opt.workers)):
         svgs.append(svg)
         with Image.open(io.BytesIO(png)) as im:
@@ -85,9 +85,12 @@ def render_frames(strokes: StrokeSet, opt: AnimateOptions, progress: Callable[[i
     return svgs, images
 
 
-def _render_frame(strokes: StrokeSet, style: Style, dopt: DrawOptions, filters: bool, cam) -> tuple[str, bytes]:
-    svg = to_svg(draw(strokes, cam, dopt), dopt.tolerance, style=style, filters=filters)
-    return svg, svg_to_png(svg, None)
+def _render_frames(strokes: StrokeSet, style: Style, dopt: DrawOptions, filters: bool, cams) -> list[tuple[str, bytes]]:
+    out = []
+    for drawing in draw_many(strokes, cams, dopt):
+        svg = to_svg(drawing, dopt.tolerance, style=style, filters=filters)
+        out.append((svg, svg_to_png(svg, None)))
+    return out
 
 
 def format_for(path: Path) -> str:

@@ -10,7 +10,7 @@ from scipy import ndimage
 
 from doodle.cameras import Camera, look_at, orbit_cameras
 from doodle.cli import cli
-from doodle.exporters import DrawOptions, ExportOptions, draw, export_views, svg_to_array, to_svg, union_mask
+from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg, union_mask
 from doodle.exporters.project import depth_intervals, project_curve
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, write_strokes
 from doodle.strokes.bezier import bezier_points
@@ -205,6 +205,14 @@ class TestSvgDocument:
         s = random_strokes(n_curves=6, n_sq=3)
         cam = orbit_cameras(s.frame, 3, width=256)[1]
         assert to_svg(draw(s, cam)) == to_svg(draw(random_strokes(n_curves=6, n_sq=3), cam))
+
+    @pytest.mark.parametrize("hidden", ["hide", "dash"])
+    def test_batch_of_views_draws_what_each_view_draws(self, hidden):
+        """draw_many (one occlusion query, one fit, one projection for all views) changes no byte."""
+        s = random_strokes(n_curves=8, n_sq=4)
+        cams = orbit_cameras(s.frame, 4, width=256) + orbit_cameras(s.frame, 2, width=200, projection="orthographic")
+        opt = DrawOptions(hidden=hidden)
+        assert [to_svg(d) for d in draw_many(s, cams, opt)] == [to_svg(draw(s, c, opt)) for c in cams]
 
     def test_cairosvg_renders_strokes(self):
         s = random_strokes(n_curves=6, n_sq=3)

@@ -9,12 +9,12 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import DoodleError
-from ..strokes.model import StrokeSet
+from ..strokes.model import StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from .fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
 from .silhouettes import contour_polylines, split_runs
-from .visibility import occluded
+from .visibility import occluded_many
 
 HiddenMode = Literal["show", "dash", "hide"]
 LAYERS = ("silhouettes", "curves", "hidden")
@@ -75,75 +75,107 @@ def check_camera(strokes: StrokeSet, camera: Camera) -> None:
 
 def draw(strokes: StrokeSet, camera: Camera, options: DrawOptions | None = None) -> Drawing:
     """Project a stroke set for ``camera`` into per-layer 2D cubic paths."""
+    return draw_many(strokes, [camera], options)[0]
+
+
+def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | None = None) -> list[Drawing]:
+    """:func:`draw` for many cameras; the same drawings, computed together.
+
+    Occlusion queries, silhouette fitting and curve projection run once for all cameras (array work on many
+    small pieces is dominated by per-call overhead), so a batch of views costs far less than its views one by
+    one.
+    """
     opt = options or DrawOptions()
     if opt.hidden not in ("show", "dash", "hide"):
         raise DoodleError(f"hidden mode must be show, dash or hide, got {opt.hidden!r}")
-    check_camera(strokes, camera)
+    for camera in cameras:
+        check_camera(strokes, camera)
     sq = strokes.superquadrics
-    margin = opt.occlusion_margin * strokes.frame.radius
-    use_occlusion = opt.hidden != "show" and len(sq) > 0
-    is_hidden = (lambda pts: occluded(pts, camera, sq, margin)) if use_occlusion else (lambda pts: np.zeros(len(pts), bool))
+    margin = opt.occlusion_margin * strokes.frame.radius if opt.hidden != "show" and len(sq) else None
     near = 1e-3 * strokes.frame.radius
-    paths: list[PathOp] = []
-
+    paths: list[list[PathOp]] = [[] for _ in cameras]
     if opt.silhouettes and len(sq):
-        paths.extend(_silhouette_paths(sq, camera, opt, margin if use_occlusion else None, near))
+        for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near)):
+            mine.extend(ops)
     if opt.curves and len(strokes.curves):
-        paths.extend(_curve_paths(strokes.curves.control_points, camera, is_hidden, near, opt))
-    return Drawing(camera, paths, strokes.curves.width_px)
+        for mine, ops in zip(paths, _curve_paths(strokes.curves.control_points, sq, cameras, opt, margin, near)):
+            mine.extend(ops)
+    return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
 
 
-def _silhouette_paths(sq, camera: Camera, opt: DrawOptions, margin: float | None, near: float) -> list[PathOp]:
-    """Visible (and hidden) runs of the union's contour, all fitted with cubics in one batch."""
-    polys = contour_polylines(sq, camera, *opt.silhouette_grid)
+def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions, margin: float | None,
+                      near: float) -> list[list[PathOp]]:
+    """Per camera, the visible (and hidden) runs of the union's contour as cubic paths."""
+    polys = [(v, i, p, n) for v, camera in enumerate(cameras)
+             for i, p, n in contour_polylines(sq, camera, *opt.silhouette_grid)]
+    out: list[list[PathOp]] = [[] for _ in cameras]
     if not polys:
-        return []
-    points = np.concatenate([p for _, p, _ in polys])
+        return out
+    sizes = [len(p) for _, _, p, _ in polys]
+    cuts = np.cumsum(sizes)[:-1]
+    view = np.repeat([v for v, _, _, _ in polys], sizes)
+    points = np.concatenate([p for _, _, p, _ in polys])
+    normals = np.concatenate([n for _, _, _, n in polys])
     if margin is None:
         hidden = np.zeros(len(points), bool)
     else:  # a contour point is never hidden by its own convex superquadric
-        owner = np.concatenate([np.full(len(p), i) for i, p, _ in polys])
-        hidden = occluded(points, camera, sq, margin, exclude=owner)
-    depth = (points @ camera.R.T + camera.t)[:, 2]
-    uv_all, _ = camera.project(points)
-    # The outline's image tangent is perpendicular to the projected surface normal (n_x / f_x, n_y / f_y):
-    # the tangent plane at a contour point contains the eye, so it projects to the outline's tangent line.
-    n_cam = np.concatenate([n for _, _, n in polys]) @ camera.R.T
-    tangent_all = np.stack([-n_cam[:, 1] / camera.fy, n_cam[:, 0] / camera.fx], axis=1)
-    cuts = np.cumsum([len(p) for _, p, _ in polys])[:-1]
+        owner = np.repeat([i for _, i, _, _ in polys], sizes)
+        hidden = occluded_many(points, view, cameras, sq, margin, exclude=owner)
+    depth, uv, tangent = np.empty(len(points)), np.empty((len(points), 2)), np.empty((len(points), 2))
+    for v, camera in enumerate(cameras):
+        mine = view == v
+        depth[mine] = (points[mine] @ camera.R.T + camera.t)[:, 2]
+        uv[mine] = camera.project(points[mine])[0]
+        # The outline's image tangent is perpendicular to the projected normal (n_x / f_x, n_y / f_y): the
+        # tangent plane at a contour point contains the eye, so it projects to the outline's tangent line.
+        n_cam = normals[mine] @ camera.R.T
+        tangent[mine] = np.stack([-n_cam[:, 1] / camera.fy, n_cam[:, 0] / camera.fx], axis=1)
     ops, runs, tangents, closed = [], [], [], []
-    per_sq: dict[int, int] = {}
-    for (i, poly, _), hid, z, uv, tan in zip(polys, np.split(hidden, cuts), np.split(depth, cuts),
-                                           np.split(uv_all, cuts), np.split(tangent_all, cuts)):
-        k = per_sq.get(i, 0)
-        per_sq[i] = k + 1
+    per_sq: dict[tuple[int, int], int] = {}
+    columns = np.hstack([points, uv, tangent])
+    for (v, i, _, _), hid, z, cols in zip(polys, np.split(hidden, cuts), np.split(depth, cuts), np.split(columns, cuts)):
+        k = per_sq.get((v, i), 0)
+        per_sq[v, i] = k + 1
         pid = f"silhouette-{i:03d}-{k}"
         for is_h, layer in ((False, "silhouettes"), (True, "hidden")):
             if is_h and opt.hidden == "hide":
                 continue
             op = PathOp(pid if not is_h else f"hidden-{pid}", layer)
-            for run in split_runs(np.hstack([poly, uv, tan]), (hid == is_h) & (z > near)):
+            for run in split_runs(cols, (hid == is_h) & (z > near)):
                 is_closed = len(run) > 3 and np.linalg.norm(run[0, :3] - run[-1, :3]) < 1e-9
                 runs.append(run[:, 3:5]), tangents.append(run[:, 5:]), closed.append(is_closed)
                 op.closed.append(is_closed)
-            ops.append(op)
+            ops.append((v, op))
     fitted = iter(fit_cubics_many(runs, opt.tolerance, closed, tangents))
-    for op in ops:
+    for v, op in ops:
         op.subpaths = [next(fitted) for _ in op.closed]
-    return [op for op in ops if op.subpaths]
+        if op.subpaths:
+            out[v].append(op)
+    return out
 
 
-def _curve_paths(controls: np.ndarray, camera: Camera, is_hidden, near: float, opt: DrawOptions) -> list[PathOp]:
-    """Visible (and hidden) pieces of every curve; one visibility query for all curves at each step."""
-    intervals = [depth_intervals(c, camera, near) for c in controls]
-    flat = [(n, a, b) for n, iv in enumerate(intervals) for a, b in iv]
-    runs = visibility_runs(controls, flat, is_hidden)
-    pieces = [(n, lo, hi, h) for n in range(len(controls)) for lo, hi, h in runs.get(n, [])
+def _curve_paths(controls: np.ndarray, sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions,
+                 margin: float | None, near: float) -> list[list[PathOp]]:
+    """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step."""
+    intervals = [(v, n, a, b) for v, camera in enumerate(cameras) for n, control in enumerate(controls)
+                 for a, b in depth_intervals(control, camera, near)]
+    interval_view = np.array([v for v, _, _, _ in intervals], int)
+    if margin is None:
+        def is_hidden(points, rows):
+            return np.zeros(len(points), bool)
+    else:
+        def is_hidden(points, rows):
+            return occluded_many(points, interval_view[rows], cameras, sq, margin)
+    runs = visibility_runs(controls, [(n, a, b) for _, n, a, b in intervals], is_hidden)
+    pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]
-    projected = project_curves(controls, [(n, lo, hi) for n, lo, hi, _ in pieces], camera, opt.tolerance)
-    ops: dict[tuple[int, bool], PathOp] = {}
-    for (n, _, _, h), (cubics, _) in zip(pieces, projected):
-        op = ops.setdefault((n, h), PathOp(f"hidden-curve-{n:03d}" if h else f"curve-{n:03d}", "hidden" if h else "curves"))
+    projected = project_curves(controls, [(v, n, lo, hi) for v, n, lo, hi, _ in pieces], cameras, opt.tolerance)
+    ops: dict[tuple[int, int, bool], PathOp] = {}
+    for (v, n, _, _, h), (cubics, _) in zip(pieces, projected):
+        op = ops.setdefault((v, n, h), PathOp(f"hidden-curve-{n:03d}" if h else f"curve-{n:03d}", "hidden" if h else "curves"))
         op.subpaths.append(cubics)
         op.closed.append(False)
-    return [ops[key] for key in sorted(ops)]
+    out: list[list[PathOp]] = [[] for _ in cameras]
+    for key in sorted(ops):
+        out[key[0]].append(ops[key])
+    return out

@@ -19,7 +19,7 @@ from ..cameras import Camera, Projection, orbit_cameras
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
 from ..styles import Style
-from .drawing import DrawOptions, check_camera, draw
+from .drawing import DrawOptions, check_camera, draw_many
 from .raster import contact_sheet, svg_to_pdf, svg_to_png
 from .svg import to_svg
 
@@ -45,25 +45,36 @@ class ExportOptions:
     """Processes drawing views in parallel; 0 = one per CPU core (at most 8). Needs ``fork`` (Linux)."""
 
 
-def _render_view(strokes: StrokeSet, opt: ExportOptions, cam: Camera) -> tuple[str, bytes | None, bytes | None]:
-    """SVG text and, as asked, PNG and PDF bytes of one view (runs in worker processes)."""
-    svg = to_svg(draw(strokes, cam, opt.draw), opt.draw.tolerance, opt.source, opt.background, style=opt.style,
-                 filters=opt.filters)
-    png = svg_to_png(svg, None) if (opt.png or opt.sheet) else None
-    pdf = svg_to_pdf(svg) if opt.pdf else None
-    return svg, png, pdf
+def _render_views(strokes: StrokeSet, opt: ExportOptions, cams: list[Camera]) -> list[tuple[str, bytes | None, bytes | None]]:
+    """SVG text and, as asked, PNG and PDF bytes of some views (runs in worker processes)."""
+    out = []
+    for drawing in draw_many(strokes, cams, opt.draw):
+        svg = to_svg(drawing, opt.draw.tolerance, opt.source, opt.background, style=opt.style, filters=opt.filters)
+        png = svg_to_png(svg, None) if (opt.png or opt.sheet) else None
+        pdf = svg_to_pdf(svg) if opt.pdf else None
+        out.append((svg, png, pdf))
+    return out
 
 
-def render_many(job, cameras: list[Camera], workers: int = 0):
-    """Yield ``job(camera)`` in camera order, in parallel processes where it pays."""
+def render_many(job, cameras: list[Camera], workers: int = 0, batch: int = 12):
+    """Yield the results of ``job(list of cameras) → list`` one camera at a time, in camera order.
+
+    Cameras go to ``job`` in batches of at most ``batch`` (drawing many views at once is cheaper per view), in
+    parallel processes where it pays, with at least two batches per process so they finish together.
+    """
     workers = workers or min(os.cpu_count() or 1, 8)
-    if workers <= 1 or len(cameras) < 4 or "fork" not in multiprocessing.get_all_start_methods():
-        yield from map(job, cameras)
+    parallel = workers > 1 and len(cameras) >= 4 and "fork" in multiprocessing.get_all_start_methods()
+    n = max(1, min(batch, -(-len(cameras) // (2 * workers)) if parallel else batch))
+    chunks = [cameras[k:k + n] for k in range(0, len(cameras), n)]
+    if not parallel:
+        for chunk in chunks:
+            yield from job(chunk)
         return
     # fork: workers start in milliseconds (spawn would re-import torch, ~1 s each). The exporters run numpy
     # only, so a parent that used torch's thread pool before forking is safe.
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        yield from pool.map(job, cameras, chunksize=max(1, len(cameras) // (4 * workers)))
+        for results in pool.map(job, chunks):
+            yield from results
 
 
 def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,
@@ -115,7 +126,7 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     written: list[Path] = []
     sheet_images: list[Image.Image] = []
     try:
-        job = partial(_render_view, strokes, opt)
+        job = partial(_render_views, strokes, opt)
         for k, (svg, png, pdf) in enumerate(render_many(job, cameras, opt.workers)):
             stem = f"view_{k:03d}"
             if opt.svg:

@@ -44,59 +44,72 @@ def project_curve(control: np.ndarray, camera: Camera, a: float = 0.0, b: float 
     The caller guarantees positive depth on ``[a, b]`` (see :func:`depth_intervals`). With ``return_breaks``
     also returns the ``K + 1`` curve parameters where the pieces meet.
     """
-    (pieces, breaks), = project_curves(control[None], [(0, a, b)], camera, tolerance)
+    (pieces, breaks), = project_curves(control[None], [(0, 0, a, b)], [camera], tolerance)
     return (pieces, breaks) if return_breaks else pieces
 
 
-def project_curves(controls: np.ndarray, intervals: list[tuple[int, float, float]], camera: Camera,
+def project_curves(controls: np.ndarray, intervals: list[tuple[int, int, float, float]], cameras: list[Camera],
                    tolerance: float = 0.05) -> list[tuple[np.ndarray, np.ndarray]]:
-    """:func:`project_curve` for many ``(curve index, a, b)`` intervals of ``controls (N, 4, 3)`` at once.
+    """:func:`project_curve` for many ``(camera index, curve index, a, b)`` intervals at once.
 
-    The adaptive splitting runs breadth first over all intervals together. Returns per interval the pieces
-    ``(K, 4, 2)`` and the ``K + 1`` parameters where they meet.
+    The adaptive splitting runs breadth first over all intervals of all cameras together. Returns per interval
+    the pieces ``(K, 4, 2)`` and the ``K + 1`` parameters where they meet.
     """
-    if not intervals:
-        return []
-    owner = np.array([i for i, _, _ in intervals])
-    lo = np.array([x for _, x, _ in intervals], float)
-    hi = np.array([x for _, _, x in intervals], float)
-    if camera.projection == "orthographic":
-        out = []
-        for n, a, b in intervals:
+    out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(intervals)
+    persp = []
+    for k, (v, n, a, b) in enumerate(intervals):
+        if cameras[v].projection == "orthographic":  # exact: the projected control points of the sub-curve
             seg = bezier_segment(controls[n], a, b) if (a, b) != (0.0, 1.0) else controls[n]
-            out.append((camera.project(seg)[0][None], np.array([a, b])))
-        return out
-    which = np.arange(len(intervals))  # the interval each open piece belongs to
+            out[k] = (cameras[v].project(seg)[0][None], np.array([a, b]))
+        else:
+            persp.append(k)
+    if persp:
+        view = np.array([intervals[k][0] for k in persp])
+        curve = np.array([intervals[k][1] for k in persp])
+        lo = np.array([intervals[k][2] for k in persp], float)
+        hi = np.array([intervals[k][3] for k in persp], float)
+        pieces = _split_perspective(controls, curve, view, lo, hi, cameras, tolerance)
+        for k, piece in zip(persp, pieces):
+            out[k] = piece
+    return out
+
+
+def _split_perspective(controls, curve, view, lo, hi, cameras, tolerance):
+    """Adaptive splitting of the perspective images of curve intervals, breadth first over all of them."""
+    R = np.array([c.R for c in cameras])[view]  # per interval
+    t = np.array([c.t for c in cameras])[view]
+    f = np.array([[c.fx, c.fy] for c in cameras])[view]
+    c = np.array([[c.cx, c.cy] for c in cameras])[view]
+    ctrl_cam = controls[curve] @ R.transpose(0, 2, 1) + t[:, None]  # (I, 4, 3) in camera space
+    which = np.arange(len(curve))  # the interval each open piece belongs to
     done_w, done_lo, done_hi, done_c = [], [], [], []
-    f = np.array([camera.fx, camera.fy])
-    c = np.array([camera.cx, camera.cy])
-    ts = np.r_[0.0, 1.0, _CHECK]
+    ts = np.concatenate([[0.0, 1.0], _CHECK])
     B = bernstein(ts)
     for depth in range(_MAX_DEPTH + 1):
-        ctrl = controls[owner[which]] @ camera.R.T + camera.t  # (K, 4, 3) in camera space
-        t = lo[:, None] + (hi - lo)[:, None] * ts  # (K, T)
+        ctrl = ctrl_cam[which]
+        tt = lo[:, None] + (hi - lo)[:, None] * ts  # (K, T)
         # Pixels and their derivatives along the piece's own parameter s ∈ [0, 1] (d/ds = (hi − lo) d/dt).
-        Bt, dBt = bernstein(t), _bernstein_derivative(t)
-        P = np.einsum("kts,ksd->ktd", Bt, ctrl)
-        D = np.einsum("kts,ksd->ktd", dBt, ctrl) * (hi - lo)[:, None, None]
+        P = np.einsum("kts,ksd->ktd", bernstein(tt), ctrl)
+        D = np.einsum("kts,ksd->ktd", _bernstein_derivative(tt), ctrl) * (hi - lo)[:, None, None]
         z = P[..., 2:3]
-        uv = P[..., :2] / z * f + c
-        duv = (D[..., :2] * z - P[..., :2] * D[..., 2:3]) / z**2 * f
+        fk, ck = f[which][:, None], c[which][:, None]
+        uv = P[..., :2] / z * fk + ck
+        duv = (D[..., :2] * z - P[..., :2] * D[..., 2:3]) / z**2 * fk
         cubic = np.stack([uv[:, 0], uv[:, 0] + duv[:, 0] / 3, uv[:, 1] - duv[:, 1] / 3, uv[:, 1]], axis=1)
         err = np.linalg.norm(np.einsum("ts,ksd->ktd", B[2:], cubic) - uv[:, 2:], axis=-1).max(axis=1)
         ok = (err <= tolerance) | (depth == _MAX_DEPTH)
         done_w.append(which[ok]), done_lo.append(lo[ok]), done_hi.append(hi[ok]), done_c.append(cubic[ok])
         mid = 0.5 * (lo + hi)
         bad = ~ok
-        which = np.r_[which[bad], which[bad]]
-        lo, hi = np.r_[lo[bad], mid[bad]], np.r_[mid[bad], hi[bad]]
+        which = np.concatenate([which[bad], which[bad]])
+        lo, hi = np.concatenate([lo[bad], mid[bad]]), np.concatenate([mid[bad], hi[bad]])
         if len(which) == 0:
             break
     w, a, b, cub = (np.concatenate(x) for x in (done_w, done_lo, done_hi, done_c))
     order = np.lexsort((a, w))
     w, a, b, cub = w[order], a[order], b[order], cub[order]
     cuts = np.flatnonzero(np.diff(w)) + 1
-    return [(pc, np.r_[pa[0], pb]) for pc, pa, pb in zip(np.split(cub, cuts), np.split(a, cuts), np.split(b, cuts))]
+    return [(pc, np.append(pa[0], pb)) for pc, pa, pb in zip(np.split(cub, cuts), np.split(a, cuts), np.split(b, cuts))]
 
 
 def _bernstein_derivative(t: np.ndarray) -> np.ndarray:
@@ -106,30 +119,30 @@ def _bernstein_derivative(t: np.ndarray) -> np.ndarray:
 
 
 def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, float]], is_hidden,
-                    samples: int = 48, refine: int = 2, split: int = 16) -> dict[int, list[tuple[float, float, bool]]]:
+                    samples: int = 48, refine: int = 2, split: int = 16) -> list[list[tuple[float, float, bool]]]:
     """Split parameter intervals of curves into ``(start, end, hidden)`` runs.
 
     Args:
         controls: ``(N, 4, 3)`` curves.
         intervals: ``(curve index, a, b)`` triples.
-        is_hidden: world points ``(P, 3)`` → bool ``(P,)``; called once for the samples of all intervals and
-            once per refinement round for all state changes together.
+        is_hidden: ``(points (P, 3), rows (P,))`` → bool ``(P,)``, where ``rows`` gives the interval each point
+            belongs to; called once for the samples of all intervals and once per refinement round for all
+            state changes together.
         refine, split: each round cuts the bracket around every state change into ``split`` parts (a
             ``split``-ary search: two rounds of 16 locate a change as well as eight bisection steps, in a
             quarter of the calls).
     Returns:
-        Runs per curve index, in parameter order.
+        Per interval, its runs in parameter order.
     """
     if not intervals:
-        return {}
+        return []
     idx = np.array([i for i, _, _ in intervals])
     a = np.array([x for _, x, _ in intervals])
     b = np.array([x for _, _, x in intervals])
     s = np.linspace(0, 1, samples)
     t = a[:, None] + (b - a)[:, None] * s  # (I, S)
-    B = bernstein(t)  # (I, S, 4)
-    pts = np.einsum("isk,ikd->isd", B, controls[idx])
-    state = is_hidden(pts.reshape(-1, 3)).reshape(len(idx), samples)
+    pts = np.einsum("isk,ikd->isd", bernstein(t), controls[idx])
+    state = is_hidden(pts.reshape(-1, 3), np.repeat(np.arange(len(idx)), samples)).reshape(len(idx), samples)
     ci, cj = np.nonzero(state[:, 1:] != state[:, :-1])  # changes between sample j and j+1 of interval i
     lo, hi = t[ci, cj], t[ci, cj + 1]
     left = state[ci, cj]
@@ -138,7 +151,7 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     for _ in range(refine if len(ci) else 0):
         tm = lo[:, None] + (hi - lo)[:, None] * inner  # (C, split − 1)
         p = np.einsum("csk,ckd->csd", bernstein(tm), ctrl)
-        same = is_hidden(p.reshape(-1, 3)).reshape(tm.shape) == left[:, None]
+        same = is_hidden(p.reshape(-1, 3), np.repeat(ci, split - 1)).reshape(tm.shape) == left[:, None]
         # The first sample that differs from the left state ends the bracket (the state changes once inside).
         first = np.where(same.all(axis=1), split - 1, np.argmin(same, axis=1))
         rows = np.arange(len(tm))
@@ -146,11 +159,10 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
         hi = np.where(first < split - 1, tm[rows, np.minimum(first, split - 2)], hi)
         lo = new_lo
     cut = 0.5 * (lo + hi)
-    runs: dict[int, list[tuple[float, float, bool]]] = {}
-    for k in range(len(idx)):
+    runs: list[list[tuple[float, float, bool]]] = [[(float(a[k]), float(b[k]), bool(state[k, 0]))] for k in range(len(idx))]
+    for k in np.unique(ci):  # only intervals with state changes need cutting
         mine = ci == k
-        cuts = np.r_[a[k], cut[mine], b[k]]
-        states = np.r_[state[k, 0], ~left[mine]]  # after each change the state flips
-        runs.setdefault(int(idx[k]), []).extend(
-            (float(cuts[m]), float(cuts[m + 1]), bool(states[m])) for m in range(len(cuts) - 1) if cuts[m + 1] > cuts[m])
+        cuts = np.concatenate([[a[k]], cut[mine], [b[k]]])
+        states = np.concatenate([[state[k, 0]], ~left[mine]])  # after each change the state flips
+        runs[k] = [(float(cuts[m]), float(cuts[m + 1]), bool(states[m])) for m in range(len(cuts) - 1) if cuts[m + 1] > cuts[m]]
     return runs

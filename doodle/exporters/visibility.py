@@ -62,17 +62,26 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     d = ends - origins
     L = np.linalg.norm(d, axis=1)
     u = d / np.maximum(L, 1e-12)[:, None]
-    R = quaternion_to_matrix(sq.rotation)  # (M, 3, 3) local → world
-    o_loc = (origins[None] - sq.translation[:, None]) @ R  # (M, P, 3): row-vector form of Rᵀ(o − t)
-    u_loc = u[None] @ R
-    # f ≤ 1 implies |x_i| ≤ a_i: only segments crossing the box can be blocked, and only inside it.
-    t0, t1 = _slab(o_loc, u_loc, sq.scale[:, None, :])  # (M, P)
-    t0, t1 = np.maximum(t0, 0.0), np.minimum(t1, L)
-    candidate = t1 > t0
+    # Bounding spheres first (radius |a| holds the box |x_i| ≤ a_i, which holds f ≤ 1), as (P, M) products:
+    # the squared distance of each sphere's centre from each segment's line, and where along it.
+    c = sq.translation
+    radius2 = (sq.scale ** 2).sum(axis=1)
+    b = u @ c.T - (origins * u).sum(axis=1, keepdims=True)  # (P, M): t of the centre's foot point
+    dist2 = (c ** 2).sum(axis=1) - 2 * origins @ c.T + (origins ** 2).sum(axis=1, keepdims=True) - b * b
+    h = np.sqrt(np.maximum(radius2 - dist2, 0.0))
+    candidate = (dist2 < radius2) & (b + h > 0) & (b - h < L[:, None])
     if exclude is not None:
-        candidate &= exclude[None, :] != np.arange(len(sq))[:, None]
-    j, p = np.nonzero(candidate)
-    o_loc, u_loc, t0, t1 = o_loc[j, p], u_loc[j, p], t0[j, p], t1[j, p]
+        candidate &= exclude[:, None] != np.arange(len(sq))[None, :]
+    p, j = np.nonzero(candidate)
+    # Then the boxes themselves, in each superquadric's frame: only segments crossing a box can be blocked by
+    # it, and only inside it.
+    R = quaternion_to_matrix(sq.rotation)[j]  # (K, 3, 3) local → world
+    o_loc = ((origins[p] - c[j])[:, None, :] @ R)[:, 0]  # row-vector form of Rᵀ(o − t)
+    u_loc = (u[p][:, None, :] @ R)[:, 0]
+    t0, t1 = _slab(o_loc, u_loc, sq.scale[j])
+    t0, t1 = np.maximum(t0, 0.0), np.minimum(t1, L[p])
+    near = t1 > t0
+    p, j, o_loc, u_loc, t0, t1 = p[near], j[near], o_loc[near], u_loc[near], t0[near], t1[near]
     blocked = np.zeros(P, bool)
     blocked[p[_inner_hit(o_loc, u_loc, L[p], sq.scale[j], sq.shape[j])]] = True
     todo = ~blocked[p]
@@ -87,10 +96,18 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
 
 def ray_origins(camera: Camera, points: np.ndarray) -> np.ndarray:
     """Where the camera ray through each world point starts: the centre (perspective) or the image plane."""
-    if camera.projection == "orthographic":
-        depth = (points - camera.center) @ camera.forward
-        return points - depth[:, None] * camera.forward
-    return np.broadcast_to(camera.center, points.shape)
+    return ray_origins_many([camera], points, np.zeros(len(points), int))
+
+
+def ray_origins_many(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> np.ndarray:
+    """:func:`ray_origins` for points ``(P, 3)`` each seen from ``cameras[view[k]]``."""
+    centers = np.array([c.center for c in cameras]).reshape(-1, 3)[view]
+    ortho = np.array([c.projection == "orthographic" for c in cameras])[view]
+    if not ortho.any():
+        return centers
+    forward = np.array([c.forward for c in cameras]).reshape(-1, 3)[view]
+    depth = ((points - centers) * forward).sum(axis=1, keepdims=True)
+    return np.where(ortho[:, None], points - depth * forward, centers)
 
 
 def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: float, samples: int = 32,
@@ -100,7 +117,13 @@ def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: fl
     The march stops ``margin`` (scene units) short of each point, so points on or just under the union's
     surface — feature curves lying on the object the superquadrics approximate — stay visible.
     """
-    origins = ray_origins(camera, points)
+    return occluded_many(points, np.zeros(len(points), int), [camera], sq, margin, samples, exclude)
+
+
+def occluded_many(points: np.ndarray, view: np.ndarray, cameras: list[Camera], sq: SuperquadricSet, margin: float,
+                  samples: int = 32, exclude: np.ndarray | None = None) -> np.ndarray:
+    """:func:`occluded` for points ``(P, 3)`` each seen from ``cameras[view[k]]``: one query for many views."""
+    origins = ray_origins_many(cameras, points, view)
     d = points - origins
     L = np.linalg.norm(d, axis=1, keepdims=True)
     ends = origins + d * np.clip((L - margin) / np.maximum(L, 1e-12), 0, 1)
