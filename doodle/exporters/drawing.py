@@ -14,7 +14,7 @@ from ..strokes.superquadric import union_log_inside_outside
 from .fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
 from .silhouettes import contour_polylines, split_runs
-from .visibility import occluded_many
+from .visibility import occluded
 
 HiddenMode = Literal["show", "dash", "hide"]
 LAYERS = ("silhouettes", "curves", "hidden")
@@ -120,7 +120,7 @@ def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptio
         hidden = np.zeros(len(points), bool)
     else:  # a contour point is never hidden by its own convex superquadric
         owner = np.repeat([i for _, i, _, _ in polys], sizes)
-        hidden = occluded_many(points, view, cameras, sq, margin, exclude=owner)
+        hidden = occluded(points, view, cameras, sq, margin, exclude=owner)
     depth, uv, tangent = np.empty(len(points)), np.empty((len(points), 2)), np.empty((len(points), 2))
     for v, camera in enumerate(cameras):
         mine = view == v
@@ -165,7 +165,7 @@ def _curve_paths(controls: np.ndarray, sq: SuperquadricSet, cameras: list[Camera
             return np.zeros(len(points), bool)
     else:
         def is_hidden(points, rows):
-            return occluded_many(points, interval_view[rows], cameras, sq, margin)
+            return occluded(points, interval_view[rows], cameras, sq, margin)
     runs = visibility_runs(controls, [(n, a, b) for _, n, a, b in intervals], is_hidden)
     pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]

@@ -1,8 +1,9 @@
 """Ray marching against the superquadric union: hidden-line tests and union silhouettes (masks).
 
 A segment is blocked when a point strictly inside the union (``log f < 0``) lies on it. Per superquadric, only
-segments that cross its bounding box (``f ≤ 1`` implies ``|x_i| ≤ a_i``) and miss a body it surely contains
-are sampled, and only inside the box, so cost scales with what the rays actually graze.
+segments that cross its bounding sphere and then its bounding box (``f ≤ 1`` implies ``|x_i| ≤ a_i``), and
+miss a body it surely contains (an inscribed octahedron or ellipsoid: superquadrics with ε ≤ 2 are convex),
+are sampled, and only inside the box, so cost scales with the rays that actually graze a surface.
 """
 
 from __future__ import annotations
@@ -94,13 +95,9 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     return blocked
 
 
-def ray_origins(camera: Camera, points: np.ndarray) -> np.ndarray:
-    """Where the camera ray through each world point starts: the centre (perspective) or the image plane."""
-    return ray_origins_many([camera], points, np.zeros(len(points), int))
-
-
-def ray_origins_many(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> np.ndarray:
-    """:func:`ray_origins` for points ``(P, 3)`` each seen from ``cameras[view[k]]``."""
+def ray_origins(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> np.ndarray:
+    """Where the camera ray through each world point ``(P, 3)``, seen from ``cameras[view[k]]``, starts: the
+    camera centre (perspective) or the point's foot on the image plane (orthographic)."""
     centers = np.array([c.center for c in cameras]).reshape(-1, 3)[view]
     ortho = np.array([c.projection == "orthographic" for c in cameras])[view]
     if not ortho.any():
@@ -110,20 +107,14 @@ def ray_origins_many(cameras: list[Camera], points: np.ndarray, view: np.ndarray
     return np.where(ortho[:, None], points - depth * forward, centers)
 
 
-def occluded(points: np.ndarray, camera: Camera, sq: SuperquadricSet, margin: float, samples: int = 32,
-             exclude: np.ndarray | None = None) -> np.ndarray:
-    """Points ``(P, 3)`` hidden from ``camera`` by the union, ``(P,)``.
+def occluded(points: np.ndarray, view: np.ndarray, cameras: list[Camera], sq: SuperquadricSet, margin: float,
+                  samples: int = 32, exclude: np.ndarray | None = None) -> np.ndarray:
+    """Points ``(P, 3)`` hidden from ``cameras[view[k]]`` by the union, ``(P,)``: one query for many views.
 
     The march stops ``margin`` (scene units) short of each point, so points on or just under the union's
-    surface — feature curves lying on the object the superquadrics approximate — stay visible.
+    surface — feature curves lying on the object the superquadrics only approximate — stay visible.
     """
-    return occluded_many(points, np.zeros(len(points), int), [camera], sq, margin, samples, exclude)
-
-
-def occluded_many(points: np.ndarray, view: np.ndarray, cameras: list[Camera], sq: SuperquadricSet, margin: float,
-                  samples: int = 32, exclude: np.ndarray | None = None) -> np.ndarray:
-    """:func:`occluded` for points ``(P, 3)`` each seen from ``cameras[view[k]]``: one query for many views."""
-    origins = ray_origins_many(cameras, points, view)
+    origins = ray_origins(cameras, points, view)
     d = points - origins
     L = np.linalg.norm(d, axis=1, keepdims=True)
     ends = origins + d * np.clip((L - margin) / np.maximum(L, 1e-12), 0, 1)
