@@ -7,6 +7,8 @@ than the distortion of the cameras COLMAP estimates for ordinary photos.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +19,20 @@ from .images import read_image, read_mask
 from .scene import Scene, estimate_frame
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
+
+
+@contextmanager
+def quiet_pycolmap() -> Iterator[None]:
+    """Keep COLMAP's own log (thousands of INFO lines per reconstruction) off the terminal; warnings and
+    errors still show. doodle prints its own one-line summaries."""
+    import pycolmap
+
+    before = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = int(pycolmap.logging.WARNING)
+    try:
+        yield
+    finally:
+        pycolmap.logging.minloglevel = before
 
 
 def find_model_dir(root: Path) -> Path | None:

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Callable
 
 from ..errors import SceneError
-from .colmap import load_colmap
+from .colmap import load_colmap, quiet_pycolmap
 from .scene import Scene
 
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
@@ -40,9 +40,10 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
     db = work / "database.db"
     log(f"structure-from-motion (pycolmap): {len(photos)} photos; extracting and matching SIFT features")
     try:
-        pycolmap.extract_features(db, root, image_names=[p.name for p in photos])
-        pycolmap.match_exhaustive(db)
-        recs = pycolmap.incremental_mapping(db, root, work / "sparse")
+        with quiet_pycolmap():
+            pycolmap.extract_features(db, root, image_names=[p.name for p in photos])
+            pycolmap.match_exhaustive(db)
+            recs = pycolmap.incremental_mapping(db, root, work / "sparse")
     except Exception as exc:  # pycolmap reports failures as RuntimeError/ValueError with long texts
         raise SceneError(f"{root}: structure-from-motion failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
     best = max(recs.values(), key=lambda r: r.num_reg_images(), default=None)

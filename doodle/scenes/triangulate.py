@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..strokes.superquadric import matrix_to_quaternion
+from .colmap import quiet_pycolmap
 from .scene import Scene
 
 
@@ -47,27 +48,28 @@ def triangulate_scene_points(scene: Scene, max_views: int = 24, log: Callable[[s
         db = tmp / "database.db"
         log(f"triangulating SfM points with the known poses (pycolmap, {len(names)} views)")
         try:
-            reader = pycolmap.ImageReaderOptions()
-            reader.camera_model = "PINHOLE"  # the database's camera must equal the model's
-            reader.camera_params = params
-            pycolmap.extract_features(db, images, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
-                                      reader_options=reader)
-            pycolmap.match_exhaustive(db)
-            # Feature extraction is threaded, so the database's image ids need not follow the name order:
-            # write the model with the ids the database actually gave.
-            with sqlite3.connect(db) as con:
-                rows = con.execute("SELECT image_id, camera_id, name FROM images").fetchall()
-            lines = []
-            for image_id, camera_id, name in sorted(rows):
-                cam = by_name[name]
-                q = matrix_to_quaternion(cam.R)
-                lines.append(f"{image_id} {' '.join(map(repr, q.tolist()))} {' '.join(map(repr, cam.t.tolist()))} "
-                             f"{camera_id} {name}\n\n")
-            (model / "cameras.txt").write_text(f"{rows[0][1]} PINHOLE {c0.width} {c0.height} {params.replace(',', ' ')}\n")
-            (model / "images.txt").write_text("".join(lines))
-            (model / "points3D.txt").write_text("")
-            rec = pycolmap.Reconstruction(str(model))
-            rec = pycolmap.triangulate_points(rec, db, images, out)
+            with quiet_pycolmap():
+                reader = pycolmap.ImageReaderOptions()
+                reader.camera_model = "PINHOLE"  # the database's camera must equal the model's
+                reader.camera_params = params
+                pycolmap.extract_features(db, images, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
+                                          reader_options=reader)
+                pycolmap.match_exhaustive(db)
+                # Feature extraction is threaded, so the database's image ids need not follow the name order:
+                # write the model with the ids the database actually gave.
+                with sqlite3.connect(db) as con:
+                    rows = con.execute("SELECT image_id, camera_id, name FROM images").fetchall()
+                lines = []
+                for image_id, camera_id, name in sorted(rows):
+                    cam = by_name[name]
+                    q = matrix_to_quaternion(cam.R)
+                    lines.append(f"{image_id} {' '.join(map(repr, q.tolist()))} {' '.join(map(repr, cam.t.tolist()))} "
+                                 f"{camera_id} {name}\n\n")
+                (model / "cameras.txt").write_text(f"{rows[0][1]} PINHOLE {c0.width} {c0.height} {params.replace(',', ' ')}\n")
+                (model / "images.txt").write_text("".join(lines))
+                (model / "points3D.txt").write_text("")
+                rec = pycolmap.Reconstruction(str(model))
+                rec = pycolmap.triangulate_points(rec, db, images, out)
         except Exception as exc:  # pycolmap raises bare runtime errors
             raise SceneError(f"{scene.source}: triangulation failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
         pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
