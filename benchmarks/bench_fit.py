@@ -3,7 +3,7 @@
 Targets (issue 4): Lego, 32 curves, default settings, images → stroke file ≤ 3 min and ≤ 4 GB peak memory on
 2 CPU cores; snowman with superquadrics ≤ 2 min. Prints quality figures: ground-truth edge precision/recall
 for the chair (24 curves, 2 % of the radius), silhouette IoU for the snowman, and ``doodle eval`` metrics on
-10 Lego views held out from fitting. Run: ``python benchmarks/bench_fit.py [--no-lego]``.
+10 Lego views held out from fitting. Run: ``python benchmarks/bench_fit.py [--no-lego] [--only snowman,lamp,lego]``.
 """
 
 from __future__ import annotations
@@ -34,8 +34,11 @@ def quiet(msg: str) -> None:
 
 
 def main() -> None:
+    only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
     with tempfile.TemporaryDirectory() as tmp:
         for name, cfg in (("snowman", FitConfig()), ("chair", FitConfig(curves=24, superquadrics=0)), ("lamp", FitConfig())):
+            if only is not None and name not in only:
+                continue
             d = write_sample(name, Path(tmp) / name)
             t0 = time.perf_counter()
             res = fit(load_scene(d), cfg, log=quiet, progress=False)
@@ -52,7 +55,7 @@ def main() -> None:
                 p, r = edge_scores(s.curves.control_points, load_ground_truth(d)["feature_edges"], 0.02 * test.frame.radius)
                 line += f"  GT edges: {p:.0%} of curve length on an edge, {r:.0%} of edge length covered"
             print(line, flush=True)
-    if "--no-lego" in sys.argv or not (LEGO / "transforms_train.json").exists():
+    if (only is not None and "lego" not in only) or "--no-lego" in sys.argv or not (LEGO / "transforms_train.json").exists():
         print("lego: skipped (../shared/data/nerf_synthetic/lego not present)" if "--no-lego" not in sys.argv else "")
         return
     t0 = time.perf_counter()
