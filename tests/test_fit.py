@@ -265,9 +265,9 @@ class TestTriangulation:
 
 
 def test_sfm_poses_real_photos(lego_dir, tmp_path, capfd):
-    """The plain-photos path end to end on real images: pycolmap poses 34 Lego photos (RGB, no poses given),
-    and the recovered camera centres match the true ones up to a similarity transform. COLMAP's own log
-    stays off the terminal."""
+    """The plain-photos path end to end on real images: pycolmap poses 34 Lego photos (RGB, no poses given;
+    one shared camera), and the recovered camera centres match the true ones up to a similarity transform.
+    COLMAP's own log stays off the terminal."""
     from scipy.spatial import procrustes
 
     frames = json.loads((lego_dir / "transforms_train.json").read_text())["frames"][::3]
@@ -283,5 +283,13 @@ def test_sfm_poses_real_photos(lego_dir, tmp_path, capfd):
     est = np.array([c.center for c in scene.cameras])
     gt = np.array([truth[c.name] for c in scene.cameras])
     _, _, disparity = procrustes(gt, est)  # squared residual after the best similarity, both sets unit-sized
-    assert disparity < 1e-3
+    assert np.sqrt(disparity) < 0.03  # RMS error of the centres < 3 % of their spread (measured ≈ 1 %)
     assert len(capfd.readouterr().err.splitlines()) < 10
+
+
+def test_unreadable_photo_is_named(tmp_path):
+    for k in range(3):
+        Image.new("RGB", (64, 64), (128, 128, 128)).save(tmp_path / f"p{k}.png")
+    (tmp_path / "p3.jpg").write_bytes(b"not a jpeg")
+    with pytest.raises(SceneError, match="p3.jpg: not a readable image"):
+        load_scene(tmp_path)

@@ -7,6 +7,8 @@ import shutil
 from pathlib import Path
 from typing import Callable
 
+from PIL import Image
+
 from ..errors import SceneError
 from .colmap import load_colmap, quiet_pycolmap
 from .scene import Scene
@@ -38,10 +40,22 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     db = work / "database.db"
-    log(f"structure-from-motion (pycolmap): {len(photos)} photos; extracting and matching SIFT features")
+    # Photos of one size are taken to come from one camera: one shared set of intrinsics is far better
+    # constrained (on 34 Lego photos, camera centres 1 % off instead of 3–6 % with a camera per photo).
+    sizes = set()
+    for p in photos:
+        try:
+            with Image.open(p) as im:
+                sizes.add(im.size)
+        except OSError:
+            raise SceneError(f"{p}: not a readable image") from None
+    shared = len(sizes) == 1
+    log(f"structure-from-motion (pycolmap): {len(photos)} photos, {'one shared camera' if shared else 'a camera per photo'}; "
+        "extracting and matching SIFT features")
     try:
         with quiet_pycolmap():
-            pycolmap.extract_features(db, root, image_names=[p.name for p in photos])
+            mode = pycolmap.CameraMode.SINGLE if shared else pycolmap.CameraMode.AUTO
+            pycolmap.extract_features(db, root, image_names=[p.name for p in photos], camera_mode=mode)
             pycolmap.match_exhaustive(db)
             recs = pycolmap.incremental_mapping(db, root, work / "sparse")
     except Exception as exc:  # pycolmap reports failures as RuntimeError/ValueError with long texts
