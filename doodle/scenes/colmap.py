@@ -23,12 +23,13 @@ MODEL_FILES = ("cameras.bin", "cameras.txt")
 
 @contextmanager
 def quiet_pycolmap() -> Iterator[None]:
-    """Keep COLMAP's own log (thousands of INFO lines per reconstruction) off the terminal; warnings and
-    errors still show. doodle prints its own one-line summaries."""
+    """Keep COLMAP's own log (thousands of INFO lines per reconstruction, and a warning about threads on
+    every run) off the terminal; errors still show. doodle prints its own one-line summaries, and failures
+    become one-line errors."""
     import pycolmap
 
     before = pycolmap.logging.minloglevel
-    pycolmap.logging.minloglevel = int(pycolmap.logging.WARNING)
+    pycolmap.logging.minloglevel = int(pycolmap.logging.ERROR)
     try:
         yield
     finally:
