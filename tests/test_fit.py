@@ -171,11 +171,12 @@ class TestEval:
 
 
 class TestInputs:
-    def test_sfm_failure_is_a_clear_error(self, tmp_path):
+    def test_sfm_failure_is_a_clear_error(self, tmp_path, capfd):
         for k in range(3):
             Image.new("RGB", (64, 64), (128, 128, 128)).save(tmp_path / f"p{k}.png")
         with pytest.raises(SceneError, match="structure-from-motion failed"):
             load_scene(tmp_path)
+        assert len(capfd.readouterr().err.splitlines()) < 5  # COLMAP's own log stays off the terminal
 
     def test_too_few_photos(self, tmp_path):
         Image.new("RGB", (8, 8)).save(tmp_path / "a.png")
