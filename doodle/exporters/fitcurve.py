@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..strokes.bezier import bernstein, bezier_derivative, bezier_points
+
 _NEWTON_STEPS = 4
 _MAX_ROUNDS = 24
 
@@ -76,13 +78,14 @@ def _prepare(points: np.ndarray, closed: bool, tangents: np.ndarray | None) -> t
     return pts, tan
 
 
-def _bernstein(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    s = 1.0 - u
-    return s * s * s, 3 * u * s * s, 3 * u * u * s, u * u * u
-
-
 def _segment_sum(values: np.ndarray, seg: np.ndarray, n: int) -> np.ndarray:
     return np.bincount(seg, weights=values, minlength=n)
+
+
+def _segment_max(values: np.ndarray, seg: np.ndarray, n: int) -> np.ndarray:
+    out = np.full(n, -1.0)
+    np.maximum.at(out, seg, values)
+    return out
 
 
 def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
@@ -91,7 +94,7 @@ def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
     ``arc`` ``(S,)``: the polyline length of each segment; a handle longer than that (near-parallel end
     tangents make the normal equations ill-conditioned) would loop far off between the points."""
     n = len(P0)
-    b0, b1, b2, b3 = _bernstein(u)
+    b0, b1, b2, b3 = bernstein(u).T
     c00 = _segment_sum(b1 * b1, seg, n)
     c01 = _segment_sum(b1 * b2, seg, n) * np.einsum("ij,ij->i", T0, T1)
     c11 = _segment_sum(b2 * b2, seg, n)
@@ -111,20 +114,18 @@ def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
 
 
 def _evaluate(ctrl: np.ndarray, seg: np.ndarray, u: np.ndarray) -> np.ndarray:
-    b0, b1, b2, b3 = _bernstein(u)
-    c = ctrl[seg]
-    return b0[:, None] * c[:, 0] + b1[:, None] * c[:, 1] + b2[:, None] * c[:, 2] + b3[:, None] * c[:, 3]
+    """Each point's segment at its parameter, ``(P, 2)``."""
+    return bezier_points(ctrl[seg], u[:, None])[:, 0]
 
 
 def _newton(ctrl: np.ndarray, X: np.ndarray, seg: np.ndarray, u: np.ndarray, first: np.ndarray) -> np.ndarray:
     """One Newton step of each parameter towards its point's closest curve point (kept ordered per segment)."""
     c = ctrl[seg]
-    q = _evaluate(ctrl, seg, u)
+    q = bezier_points(c, u[:, None])[:, 0]
+    q1 = bezier_derivative(c, u[:, None])[:, 0]
     d1 = 3 * (c[:, 1:] - c[:, :-1])
-    d2 = 2 * (d1[:, 1:] - d1[:, :-1])
-    s, w = (1 - u)[:, None], u[:, None]
-    q1 = s * s * d1[:, 0] + 2 * s * w * d1[:, 1] + w * w * d1[:, 2]
-    q2 = s * d2[:, 0] + w * d2[:, 1]
+    d2 = 2 * (d1[:, 1:] - d1[:, :-1])  # the second derivative is linear in u
+    q2 = (1 - u)[:, None] * d2[:, 0] + u[:, None] * d2[:, 1]
     num = np.einsum("ij,ij->i", q - X, q1)
     den = np.einsum("ij,ij->i", q1, q1) + np.einsum("ij,ij->i", q - X, q2)
     ok = np.abs(den) > 1e-12
@@ -221,8 +222,7 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
         P0, P3, T0, T1 = X[s], X[e], T[s], -T[e]
         ctrl = _fit_segments(Xs, seg, u, P0, P3, T0, T1, span)
         err = np.linalg.norm(_evaluate(ctrl, seg, u) - Xs, axis=1)
-        worst = np.full(len(s), -1.0)
-        np.maximum.at(worst, seg, err)
+        worst = _segment_max(err, seg, len(s))
         near = (worst > tolerance) & (worst <= 16 * tolerance)  # close: improve the parameters first
         if near.any():
             for _ in range(_NEWTON_STEPS):
@@ -230,8 +230,7 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
                 u_new = np.where(pick, _newton(ctrl, Xs, seg, u, first), u)
                 ctrl_new = _fit_segments(Xs, seg, u_new, P0, P3, T0, T1, span)
                 err_new = np.linalg.norm(_evaluate(ctrl_new, seg, u_new) - Xs, axis=1)
-                worst_new = np.full(len(s), -1.0)
-                np.maximum.at(worst_new, seg, err_new)
+                worst_new = _segment_max(err_new, seg, len(s))
                 better = near & (worst_new < worst)
                 ctrl[better], worst[better] = ctrl_new[better], worst_new[better]
                 u, err = np.where(better[seg], u_new, u), np.where(better[seg], err_new, err)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cameras import Camera
-from ..strokes.bezier import bernstein, bezier_segment
+from ..strokes.bezier import bernstein, bezier_derivative, bezier_points, bezier_segment
 
 _CHECK = np.linspace(0, 1, 17)[1:-1]
 _MAX_DEPTH = 16
@@ -76,27 +76,26 @@ def project_curves(controls: np.ndarray, intervals: list[tuple[int, int, float, 
 
 def _split_perspective(controls, curve, view, lo, hi, cameras, tolerance):
     """Adaptive splitting of the perspective images of curve intervals, breadth first over all of them."""
-    R = np.array([c.R for c in cameras])[view]  # per interval
-    t = np.array([c.t for c in cameras])[view]
-    f = np.array([[c.fx, c.fy] for c in cameras])[view]
-    c = np.array([[c.cx, c.cy] for c in cameras])[view]
+    R = np.array([cam.R for cam in cameras])[view]  # per interval
+    t = np.array([cam.t for cam in cameras])[view]
+    focal = np.array([[cam.fx, cam.fy] for cam in cameras])[view]
+    principal = np.array([[cam.cx, cam.cy] for cam in cameras])[view]
     ctrl_cam = controls[curve] @ R.transpose(0, 2, 1) + t[:, None]  # (I, 4, 3) in camera space
     which = np.arange(len(curve))  # the interval each open piece belongs to
     done_w, done_lo, done_hi, done_c = [], [], [], []
     ts = np.concatenate([[0.0, 1.0], _CHECK])
-    B = bernstein(ts)
     for depth in range(_MAX_DEPTH + 1):
         ctrl = ctrl_cam[which]
         tt = lo[:, None] + (hi - lo)[:, None] * ts  # (K, T)
         # Pixels and their derivatives along the piece's own parameter s ∈ [0, 1] (d/ds = (hi − lo) d/dt).
-        P = np.einsum("kts,ksd->ktd", bernstein(tt), ctrl)
-        D = np.einsum("kts,ksd->ktd", _bernstein_derivative(tt), ctrl) * (hi - lo)[:, None, None]
+        P = bezier_points(ctrl, tt)  # (K, T, 3)
+        D = bezier_derivative(ctrl, tt) * (hi - lo)[:, None, None]
         z = P[..., 2:3]
-        fk, ck = f[which][:, None], c[which][:, None]
+        fk, ck = focal[which][:, None], principal[which][:, None]
         uv = P[..., :2] / z * fk + ck
         duv = (D[..., :2] * z - P[..., :2] * D[..., 2:3]) / z**2 * fk
         cubic = np.stack([uv[:, 0], uv[:, 0] + duv[:, 0] / 3, uv[:, 1] - duv[:, 1] / 3, uv[:, 1]], axis=1)
-        err = np.linalg.norm(np.einsum("ts,ksd->ktd", B[2:], cubic) - uv[:, 2:], axis=-1).max(axis=1)
+        err = np.linalg.norm(bezier_points(cubic, _CHECK) - uv[:, 2:], axis=-1).max(axis=1)
         ok = (err <= tolerance) | (depth == _MAX_DEPTH)
         done_w.append(which[ok]), done_lo.append(lo[ok]), done_hi.append(hi[ok]), done_c.append(cubic[ok])
         mid = 0.5 * (lo + hi)
@@ -110,12 +109,6 @@ def _split_perspective(controls, curve, view, lo, hi, cameras, tolerance):
     w, a, b, cub = w[order], a[order], b[order], cub[order]
     cuts = np.flatnonzero(np.diff(w)) + 1
     return [(pc, np.append(pa[0], pb)) for pc, pa, pb in zip(np.split(cub, cuts), np.split(a, cuts), np.split(b, cuts))]
-
-
-def _bernstein_derivative(t: np.ndarray) -> np.ndarray:
-    """Derivatives of the cubic Bernstein basis, ``(..., 4)``."""
-    s = 1.0 - t
-    return np.stack([-3 * s * s, 3 * s * s - 6 * t * s, 6 * t * s - 3 * t * t, 3 * t * t], axis=-1)
 
 
 def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, float]], is_hidden,
@@ -141,7 +134,7 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     b = np.array([x for _, _, x in intervals])
     s = np.linspace(0, 1, samples)
     t = a[:, None] + (b - a)[:, None] * s  # (I, S)
-    pts = np.einsum("isk,ikd->isd", bernstein(t), controls[idx])
+    pts = bezier_points(controls[idx], t)  # (I, S, 3)
     state = is_hidden(pts.reshape(-1, 3), np.repeat(np.arange(len(idx)), samples)).reshape(len(idx), samples)
     ci, cj = np.nonzero(state[:, 1:] != state[:, :-1])  # changes between sample j and j+1 of interval i
     lo, hi = t[ci, cj], t[ci, cj + 1]
@@ -150,7 +143,7 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     inner = np.arange(1, split) / split
     for _ in range(refine if len(ci) else 0):
         tm = lo[:, None] + (hi - lo)[:, None] * inner  # (C, split − 1)
-        p = np.einsum("csk,ckd->csd", bernstein(tm), ctrl)
+        p = bezier_points(ctrl, tm)
         same = is_hidden(p.reshape(-1, 3), np.repeat(ci, split - 1)).reshape(tm.shape) == left[:, None]
         # The first sample that differs from the left state ends the bracket (the state changes once inside).
         first = np.where(same.all(axis=1), split - 1, np.argmin(same, axis=1))

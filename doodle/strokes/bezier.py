@@ -7,15 +7,10 @@ from __future__ import annotations
 
 import torch
 
-import numpy as np
+from ..arrays import check_shape, numpy_in_numpy_out, ops
 
-from ..arrays import check_shape, numpy_in_numpy_out
-
-
-def _cat_last(parts: list) -> "np.ndarray | torch.Tensor":
-    # The evaluation functions below are plain arithmetic that numpy and torch share, so numpy callers (the
-    # exporters, thousands of tiny calls per view) skip the conversion to torch.
-    return torch.cat(parts, dim=-1) if isinstance(parts[0], torch.Tensor) else np.concatenate(parts, axis=-1)
+# The evaluation functions below are written against ``ops`` (numpy or torch), so numpy callers (the
+# exporters, many small calls per view) skip the conversion to torch.
 
 
 def bernstein(t: torch.Tensor) -> torch.Tensor:
@@ -32,7 +27,7 @@ def bernstein(t: torch.Tensor) -> torch.Tensor:
     """
     t = t[..., None]
     s = 1.0 - t
-    return _cat_last([s**3, 3 * t * s**2, 3 * t**2 * s, t**3])
+    return ops(t).concatenate([s**3, 3 * t * s**2, 3 * t**2 * s, t**3], axis=-1)
 
 
 def bezier_points(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
@@ -65,7 +60,7 @@ def bezier_derivative(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
         t = torch.as_tensor(t).to(control)
     t = t[..., None]
     s = 1.0 - t
-    return _cat_last([s**2, 2 * t * s, t**2]) @ d
+    return ops(t).concatenate([s**2, 2 * t * s, t**2], axis=-1) @ d
 
 
 def bezier_segment(control: torch.Tensor, t0: float, t1: float) -> torch.Tensor:
@@ -94,7 +89,7 @@ def bezier_segment(control: torch.Tensor, t0: float, t1: float) -> torch.Tensor:
         return pts[..., 0, :]
 
     parts = [blossom(t0, t0, t0), blossom(t0, t0, t1), blossom(t0, t1, t1), blossom(t1, t1, t1)]
-    return torch.stack(parts, dim=-2) if isinstance(control, torch.Tensor) else np.stack(parts, axis=-2)
+    return ops(control).stack(parts, -2)
 
 
 @numpy_in_numpy_out
