@@ -120,12 +120,12 @@ def surface_grids(sq: SuperquadricSet, n_eta: int, n_omega: int) -> SurfaceGrids
     return _GRID_CACHE[key]
 
 
-def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: list[np.ndarray], sq: SuperquadricSet,
+def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: np.ndarray, sq: SuperquadricSet,
             camera: Camera) -> tuple[np.ndarray, np.ndarray]:
     """Marching-squares vertices ``(K, 2)`` in grid units on superquadrics ``i`` ``(K,)`` → world surface points
     and unit normals ``(K, 3)`` after one regula-falsi step on the exact ``g`` along each vertex's grid edge:
     linear interpolation alone leaves the vertices a fraction of a pixel off the true contour, which the
-    cubic fit would then chase."""
+    cubic fit would then chase. ``g`` ``(M, n_eta, n_omega + 1)``: the contour function on every grid."""
     n_eta, n_omega = grids.eta.shape[1], grids.omega.shape[1]
     on_row_edge = np.abs(c[:, 0] - np.round(c[:, 0])) > 1e-9  # the vertex moves along η (between two rows)
     r_lo = np.floor(c[:, 0]).astype(int).clip(0, n_eta - 2)
@@ -136,8 +136,7 @@ def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: list[np.ndarra
     ca = np.where(on_row_edge, c_at, c_lo)
     cb = np.where(on_row_edge, c_at, c_lo + 1)
     ea, wa, eb, wb = grids.eta[i, ra], grids.omega[i, ca], grids.eta[i, rb], grids.omega[i, cb]
-    g_all = np.stack(g)
-    ga, gb = g_all[i, ra, ca], g_all[i, rb, cb]
+    ga, gb = g[i, ra, ca], g[i, rb, cb]
     s = np.clip(np.where(on_row_edge, c[:, 0] - ra, c[:, 1] - ca), 0, 1)
     R = quaternion_to_matrix(sq.rotation)[i]  # (K, 3, 3)
 
@@ -164,7 +163,7 @@ def contour_polylines(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_om
     if len(sq) == 0:
         return []
     grids = surface_grids(sq, n_eta, n_omega)
-    g = [_contour_function(grids.points[i], grids.normals[i], camera) for i in range(len(sq))]
+    g = _contour_function(grids.points, grids.normals, camera)  # (M, n_eta, n_omega + 1)
     contours = [(i, c) for i in range(len(sq)) for c in measure.find_contours(g[i], 0.0) if len(c) >= 2]
     if not contours:
         return []
