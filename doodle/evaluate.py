@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from .exporters import DrawOptions, draw, svg_to_array, to_svg, union_mask
+from .exporters import DrawOptions, draw_many, svg_to_array, to_svg, union_mask
 from .fit.targets import line_map, working_scene
 from .scenes import Scene
 from .strokes import StrokeSet, dumps
@@ -23,10 +23,11 @@ from .strokes.binary import encode
 def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256) -> dict[str, Any]:
     """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px)."""
     work = working_scene(scene, size)
+    drawings = draw_many(strokes, work.cameras, DrawOptions(tolerance=0.25))
     rows = []
-    for k, (cam, img) in enumerate(zip(work.cameras, work.images)):
+    for k, (cam, img, drawing) in enumerate(zip(work.cameras, work.images, drawings)):
         mask = work.masks[k] if work.masks is not None else None
-        svg = to_svg(draw(strokes, cam, DrawOptions(tolerance=0.25)), 0.25)
+        svg = to_svg(drawing, 0.25)
         stroke = svg_to_array(svg, "white")[..., :3].mean(-1) < 160
         ref = line_map(img, mask)
         row: dict[str, Any] = {"view": cam.name or str(k)}

@@ -67,13 +67,13 @@ def _validate(cfg: FitConfig, scene: Scene) -> None:
 
 def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3) -> list[np.ndarray]:
     """Per camera, the pixels within ``grow_px`` of the union's visible silhouette as the exporter draws it."""
-    from ..exporters.drawing import DrawOptions, draw
+    from ..exporters.drawing import DrawOptions, draw_many
 
     strokes = StrokeSet(frame, CurveSet(), sq)
+    drawings = draw_many(strokes, cameras, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     out = []
-    for cam in cameras:
+    for cam, d in zip(cameras, drawings):
         img = np.zeros((cam.height, cam.width), bool)
-        d = draw(strokes, cam, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
         for op in d.layer("silhouettes"):
             for sp in op.subpaths:
                 for seg in sp:
