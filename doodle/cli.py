@@ -181,8 +181,6 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
     from .exporters import ExportOptions, export_cameras, export_views
     from .strokes import read_strokes
 
-    if views < 1:
-        raise click.BadParameter(f"must be at least 1, got {views}", param_hint="--views")
     s = read_strokes(strokes)
     cams = export_cameras(s, views, scene_dir, split, size, "orthographic" if projection == "ortho" else "perspective")
     from .styles import load_style
@@ -221,8 +219,6 @@ def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None
     outputs = {k: v for k, v in (("gif", gif), ("apng", apng), ("mp4", mp4), ("svg", svg)) if v is not None}
     if not outputs:
         raise click.UsageError("choose at least one of --gif, --apng, --mp4, --svg")
-    if frames < 1:
-        raise click.BadParameter(f"must be at least 1, got {frames}", param_hint="--frames")
     from .styles import load_style
 
     s = read_strokes(strokes)
