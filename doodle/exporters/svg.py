@@ -10,6 +10,7 @@ import numpy as np
 import svgwrite
 
 from ..styles import Style, load_style, styled_path_data
+from ..styles.render import format_number
 from .drawing import LAYERS, Drawing, PathOp
 
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -38,8 +39,7 @@ def digits_for(tolerance: float) -> int:
 def path_data(op: PathOp, digits: int) -> str:
     """``d`` attribute: ``M x y C ... [Z]`` per subpath, numbers with ``digits`` decimals, trailing zeros cut."""
     def num(v: float) -> str:
-        s = f"{v:.{digits}f}".rstrip("0").rstrip(".") if digits else f"{v:.0f}"
-        return "0" if s in ("-0", "") else s
+        return format_number(v, digits)
 
     parts = []
     for pieces, closed in zip(op.subpaths, op.closed):

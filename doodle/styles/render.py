@@ -47,13 +47,14 @@ def _noise(s: np.ndarray, rng: np.random.Generator, waves: float, terms: int = 3
     return out / terms
 
 
-def _fmt(v: float) -> str:
-    s = f"{v:.2f}".rstrip("0").rstrip(".")
+def format_number(v: float, digits: int = 2) -> str:
+    """Shortest SVG number with ``digits`` decimals: trailing zeros cut, ``-0`` written ``0``."""
+    s = f"{v:.{digits}f}".rstrip("0").rstrip(".") if digits else f"{v:.0f}"
     return "0" if s in ("-0", "") else s
 
 
 def polyline_d(p: np.ndarray, closed: bool = False) -> str:
-    return "M" + " L".join(f"{_fmt(x)} {_fmt(y)}" for x, y in p) + ("Z" if closed else "")
+    return "M" + " L".join(f"{format_number(x)} {format_number(y)}" for x, y in p) + ("Z" if closed else "")
 
 
 def styled_path_data(pieces_list: list[np.ndarray], closed: list[bool], style: Style, path_id: str, width: float,
