@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import io
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Callable
@@ -45,9 +45,7 @@ class AnimateOptions:
 def _resolve(opt: AnimateOptions) -> tuple[Style, DrawOptions]:
     style = load_style(opt.style) if isinstance(opt.style, (str, Path)) else opt.style
     hidden = opt.hidden or style.hidden_mode or "hide"
-    d = opt.draw
-    return style, DrawOptions(tolerance=d.tolerance, hidden=hidden, curves=d.curves, silhouettes=d.silhouettes,
-                              occlusion_margin=d.occlusion_margin, silhouette_grid=d.silhouette_grid)
+    return style, replace(opt.draw, hidden=hidden)
 
 
 def _validate(strokes: StrokeSet, opt: AnimateOptions) -> None:
