@@ -1,4 +1,4 @@
-"""Geometry of one view, computed once: a list of 2D cubic paths per layer that every writer only reads."""
+"""Geometry of each view, computed once: a list of 2D cubic paths per layer that every writer only reads."""
 
 from __future__ import annotations
 
