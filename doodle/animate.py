@@ -16,7 +16,7 @@ from .atomic import atomic_path, write_text
 from .cameras import orbit_cameras
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many
-from .exporters.export import render_many
+from .exporters.workers import map_chunks
 from .exporters.raster import svg_to_png
 from .exporters.svg import to_svg
 from .strokes.model import StrokeSet
@@ -72,14 +72,13 @@ def render_frames(strokes: StrokeSet, opt: AnimateOptions, progress: Callable[[i
 
     svgs, images = [], []
     job = partial(_render_frames, strokes, style, dopt, opt.filters)
-    for k, (svg, png) in enumerate(render_many(job, cams, opt.workers)):
+    report = (lambda done: progress(done, len(cams))) if progress else None
+    for svg, png in map_chunks(job, cams, opt.workers, progress=report):
         svgs.append(svg)
         with Image.open(io.BytesIO(png)) as im:
             rgba = im.convert("RGBA")
         bg = Image.new("RGBA", rgba.size, style.background if style.background != "none" else "#ffffff")
         images.append(Image.alpha_composite(bg, rgba).convert("RGB"))
-        if progress:
-            progress(k + 1, len(cams))
     return svgs, images
 
 

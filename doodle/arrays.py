@@ -1,42 +1,22 @@
 """Helpers shared by the math modules: one code path for numpy and torch, and shape checks.
 
-Math functions are written once in torch. :func:`numpy_in_numpy_out` lets them take numpy arrays too:
-numpy inputs are converted to float64 tensors and the results converted back, so exporters (numpy,
-float64) and the fitting core (torch, autograd) call the same function.
+Math functions are written once against :func:`ops` (``xp``-style: numpy or torch), so exporters (numpy,
+float64) and the fitting core (torch, autograd) call the same function. torch is never imported here: a
+process that only draws (export and animation workers) does not load torch or start its OpenMP pool.
 """
 
 from __future__ import annotations
 
-import functools
-from typing import Any, Callable, Sequence, TypeVar
+import sys
+from typing import Any, Sequence
 
 import numpy as np
-import torch
-
-F = TypeVar("F", bound=Callable[..., Any])
 
 
-def _to_numpy(value: Any) -> Any:
-    if isinstance(value, torch.Tensor):
-        return value.detach().cpu().numpy()
-    if isinstance(value, tuple):
-        return tuple(_to_numpy(v) for v in value)
-    return value
-
-
-def numpy_in_numpy_out(fn: F) -> F:
-    """Decorate a torch function so numpy array arguments give numpy results (float64)."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        uses_numpy = any(isinstance(a, np.ndarray) for a in (*args, *kwargs.values()))
-        if not uses_numpy:
-            return fn(*args, **kwargs)
-        conv = lambda a: torch.from_numpy(np.ascontiguousarray(a, dtype=np.float64)) if isinstance(a, np.ndarray) else a
-        out = fn(*(conv(a) for a in args), **{k: conv(v) for k, v in kwargs.items()})
-        return _to_numpy(out)
-
-    return wrapper  # type: ignore[return-value]
+def is_tensor(x: Any) -> bool:
+    """Whether ``x`` is a torch tensor, without importing torch (no tensor can exist before it is imported)."""
+    torch = sys.modules.get("torch")
+    return torch is not None and isinstance(x, torch.Tensor)
 
 
 def check_shape(x: Any, trailing: Sequence[int | None], name: str) -> None:
@@ -70,28 +50,40 @@ class _NumpyOps:
     min = staticmethod(lambda x, axis: x.min(axis=axis))
     transpose = staticmethod(lambda x: np.swapaxes(x, -1, -2))
     full = staticmethod(lambda shape, value, like: np.full(shape, value, dtype=like.dtype))
+    asarray = staticmethod(lambda v, like: np.asarray(v, dtype=like.dtype))
 
 
 class _TorchOps:
-    """Torch side of :class:`_NumpyOps`."""
+    """Torch side of :class:`_NumpyOps` (built on first use, when torch is already imported)."""
 
-    stack = staticmethod(lambda xs, axis: torch.stack(xs, dim=axis))
-    clip_min = staticmethod(lambda x, lo: x.clamp_min(lo))
-    clip_max = staticmethod(lambda x, hi: x.clamp(max=hi))
-    sigmoid = staticmethod(torch.sigmoid)
-    norm = staticmethod(lambda x, axis, keepdims=False: x.norm(dim=axis, keepdim=keepdims))
-    min = staticmethod(lambda x, axis: x.min(dim=axis).values)
-    transpose = staticmethod(lambda x: x.transpose(-1, -2))
-    full = staticmethod(lambda shape, value, like: torch.full(shape, value, dtype=like.dtype, device=like.device))
+    def __init__(self) -> None:
+        import torch
+
+        self.stack = lambda xs, axis: torch.stack(xs, dim=axis)
+        self.clip_min = lambda x, lo: x.clamp_min(lo)
+        self.clip_max = lambda x, hi: x.clamp(max=hi)
+        self.sigmoid = torch.sigmoid
+        self.norm = lambda x, axis, keepdims=False: x.norm(dim=axis, keepdim=keepdims)
+        self.min = lambda x, axis: x.min(dim=axis).values
+        self.transpose = lambda x: x.transpose(-1, -2)
+        self.full = lambda shape, value, like: torch.full(shape, value, dtype=like.dtype, device=like.device)
+        self.asarray = lambda v, like: torch.as_tensor(v, dtype=like.dtype, device=like.device)
 
 
 def ops(x: Any) -> Any:
     """Namespace with ``xp``-style helpers for ``x``'s library, plus the shared ufuncs.
 
-    Math written against it runs natively in numpy (exporters: float64, many small arrays, fork-safe worker
-    processes) and in torch (fitting: autograd, GPU) from one source.
+    Math written against it runs natively in numpy (exporters: float64, many small arrays, worker
+    processes without torch) and in torch (fitting: autograd, GPU) from one source.
     """
-    return _TORCH_NS if isinstance(x, torch.Tensor) else _NUMPY_NS
+    global _TORCH_NS
+    if not is_tensor(x):
+        return _NUMPY_NS
+    if _TORCH_NS is None:
+        import torch
+
+        _TORCH_NS = _Namespace(torch, _TorchOps())
+    return _TORCH_NS
 
 
 class _Namespace:
@@ -103,4 +95,4 @@ class _Namespace:
 
 
 _NUMPY_NS = _Namespace(np, _NumpyOps)
-_TORCH_NS = _Namespace(torch, _TorchOps)
+_TORCH_NS: _Namespace | None = None

@@ -191,7 +191,7 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
                          filters=not no_filters, source=str(strokes),
                          draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves))
     with _progress(len(cams), "drawing") as bar:
-        files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(1))
+        files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(k - bar.n))
     click.echo(f"wrote {len(files)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
 
 
@@ -225,7 +225,7 @@ def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None
     opt = AnimateOptions(frames=frames, fps=fps, size=size, style=load_style(style), elevation_deg=elevation,
                          bob_deg=bob, hidden=hidden or "", filters=not no_filters)
     with _progress(frames, "frames") as bar:
-        written = animate_many(s, outputs, opt, progress=lambda k, n: bar.update(1))
+        written = animate_many(s, outputs, opt, progress=lambda k, n: bar.update(k - bar.n))
     click.echo("wrote " + ", ".join(str(p) for p in written))
 
 

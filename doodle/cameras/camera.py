@@ -9,24 +9,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-import torch
 
-from ..arrays import check_shape, numpy_in_numpy_out
+from ..arrays import check_shape, is_tensor, ops
+
+if TYPE_CHECKING:  # annotations only: numpy callers never import torch
+    import torch
 
 Projection = Literal["perspective", "orthographic"]
 
 
-@numpy_in_numpy_out
-def project_points(
-    points: torch.Tensor, R: torch.Tensor, t: torch.Tensor, K: torch.Tensor, orthographic: bool = False
-) -> tuple[torch.Tensor, torch.Tensor]:
+def project_points(points, R, t, K, orthographic: bool = False):
     """Project world points to pixels.
 
     Args:
-        points: ``(..., 3)`` world points.
+        points: ``(..., 3)`` world points (numpy or torch; ``R``, ``t``, ``K`` are converted to match).
         R: ``(3, 3)`` world-to-camera rotation; t: ``(3,)``.
         K: ``(4,)`` = ``(fx, fy, cx, cy)``.
         orthographic: parallel projection along the camera's z axis.
@@ -40,10 +39,11 @@ def project_points(
     ([[50.0, 50.0]], [2.0])
     """
     check_shape(points, (3,), "points")
-    pc = points @ R.T.to(points.dtype) + t.to(points.dtype)
+    xp = ops(points)
+    R, t, K = (xp.asarray(a, points) for a in (R, t, K))
+    pc = points @ xp.transpose(R) + t
     z = pc[..., 2]
     xy = pc[..., :2] if orthographic else pc[..., :2] / z[..., None]
-    K = K.to(points.dtype)
     return xy * K[:2] + K[2:], z
 
 
@@ -110,13 +110,9 @@ class Camera:
 
     def project(self, points: np.ndarray | torch.Tensor):
         """Project world points ``(..., 3)`` → ``(uv (..., 2), depth (...))`` (numpy or torch)."""
-        if isinstance(points, torch.Tensor):
-            R = torch.as_tensor(self.R, dtype=points.dtype, device=points.device)
-            t = torch.as_tensor(self.t, dtype=points.dtype, device=points.device)
-            K = torch.as_tensor(self.K, dtype=points.dtype, device=points.device)
-            return project_points(points, R, t, K, self.projection == "orthographic")
-        return project_points(np.asarray(points, dtype=np.float64), self.R, self.t, self.K,
-                              self.projection == "orthographic")
+        if not is_tensor(points):
+            points = np.asarray(points, dtype=np.float64)
+        return project_points(points, self.R, self.t, self.K, self.projection == "orthographic")
 
     def rays(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space ray origins and unit directions through every pixel centre, ``(H, W, 3)`` each."""

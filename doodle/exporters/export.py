@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import io
-import multiprocessing
 import os
 import shutil
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -22,6 +20,7 @@ from ..styles import Style
 from .drawing import DrawOptions, check_camera, draw_many
 from .raster import contact_sheet, svg_to_pdf, svg_to_png
 from .svg import to_svg
+from .workers import map_chunks
 
 
 @dataclass
@@ -42,7 +41,7 @@ class ExportOptions:
     draw: DrawOptions = field(default_factory=DrawOptions)
     source: str = ""
     workers: int = 0
-    """Processes drawing views in parallel; 0 = one per CPU core (at most 8). Needs ``fork`` (Linux)."""
+    """Processes drawing views in parallel; 0 = one per CPU core (at most 8); 1 = draw in this process."""
 
 
 def _render_views(strokes: StrokeSet, opt: ExportOptions, cams: list[Camera]) -> list[tuple[str, bytes | None, bytes | None]]:
@@ -54,27 +53,6 @@ def _render_views(strokes: StrokeSet, opt: ExportOptions, cams: list[Camera]) ->
         pdf = svg_to_pdf(svg) if opt.pdf else None
         out.append((svg, png, pdf))
     return out
-
-
-def render_many(job, cameras: list[Camera], workers: int = 0, batch: int = 12):
-    """Yield the results of ``job(list of cameras) → list`` one camera at a time, in camera order.
-
-    Cameras go to ``job`` in batches of at most ``batch`` (drawing many views at once is cheaper per view), in
-    parallel processes where it pays, with at least two batches per process so they finish together.
-    """
-    workers = workers or min(os.cpu_count() or 1, 8)
-    parallel = workers > 1 and len(cameras) >= 4 and "fork" in multiprocessing.get_all_start_methods()
-    n = max(1, min(batch, -(-len(cameras) // (2 * workers)) if parallel else batch))
-    chunks = [cameras[k:k + n] for k in range(0, len(cameras), n)]
-    if not parallel:
-        for chunk in chunks:
-            yield from job(chunk)
-        return
-    # fork: workers start in milliseconds (spawn would re-import torch, ~1 s each). The exporters run numpy
-    # only, so a parent that used torch's thread pool before forking is safe.
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        for results in pool.map(job, chunks):
-            yield from results
 
 
 def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str | os.PathLike | None = None,
@@ -127,7 +105,8 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     sheet_images: list[Image.Image] = []
     try:
         job = partial(_render_views, strokes, opt)
-        for k, (svg, png, pdf) in enumerate(render_many(job, cameras, opt.workers)):
+        report = (lambda done: progress(done, len(cameras))) if progress else None
+        for k, (svg, png, pdf) in enumerate(map_chunks(job, cameras, opt.workers, progress=report)):
             stem = f"view_{k:03d}"
             if opt.svg:
                 (tmp / f"{stem}.svg").write_text(svg, encoding="utf-8")
@@ -137,8 +116,6 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
                 sheet_images.append(Image.open(io.BytesIO(png)))
             if pdf is not None:
                 (tmp / f"{stem}.pdf").write_bytes(pdf)
-            if progress:
-                progress(k + 1, len(cameras))
         # built before anything moves, so a failure here leaves OUT_DIR as it was
         sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))]) if opt.sheet else None
         for f in sorted(tmp.iterdir()):

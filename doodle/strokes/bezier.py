@@ -5,9 +5,14 @@
 
 from __future__ import annotations
 
-import torch
+from typing import TYPE_CHECKING
 
-from ..arrays import check_shape, numpy_in_numpy_out, ops
+import numpy as np
+
+from ..arrays import check_shape, is_tensor, ops
+
+if TYPE_CHECKING:  # annotations only: numpy callers never import torch
+    import torch
 
 # The evaluation functions below are written against ``ops`` (numpy or torch), so numpy callers (the
 # exporters, many small calls per view) skip the conversion to torch.
@@ -40,8 +45,8 @@ def bezier_points(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
         ``(..., T, D)`` points.
     """
     check_shape(control, (4, None), "control")
-    if isinstance(control, torch.Tensor):
-        t = torch.as_tensor(t).to(control)
+    if is_tensor(control):
+        t = ops(control).asarray(t, control)
     return bernstein(t) @ control
 
 
@@ -56,8 +61,8 @@ def bezier_derivative(control: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
     """
     check_shape(control, (4, None), "control")
     d = 3.0 * (control[..., 1:, :] - control[..., :-1, :])
-    if isinstance(control, torch.Tensor):
-        t = torch.as_tensor(t).to(control)
+    if is_tensor(control):
+        t = ops(control).asarray(t, control)
     t = t[..., None]
     s = 1.0 - t
     return ops(t).concatenate([s**2, 2 * t * s, t**2], axis=-1) @ d
@@ -92,9 +97,7 @@ def bezier_segment(control: torch.Tensor, t0: float, t1: float) -> torch.Tensor:
     return ops(control).stack(parts, -2)
 
 
-@numpy_in_numpy_out
 def bezier_length(control: torch.Tensor, samples: int = 64) -> torch.Tensor:
     """Arc length by dense polyline sampling. ``(..., 4, D)`` → ``(...)``."""
-    t = torch.linspace(0.0, 1.0, samples, dtype=control.dtype, device=control.device)
-    pts = bezier_points(control, t)
-    return (pts[..., 1:, :] - pts[..., :-1, :]).norm(dim=-1).sum(-1)
+    pts = bezier_points(control, np.linspace(0.0, 1.0, samples))
+    return ops(control).norm(pts[..., 1:, :] - pts[..., :-1, :], -1).sum(-1)

@@ -15,9 +15,12 @@ from __future__ import annotations
 
 import math
 
-import torch
+from typing import TYPE_CHECKING
 
-from ..arrays import check_shape, numpy_in_numpy_out, ops
+from ..arrays import check_shape, ops
+
+if TYPE_CHECKING:  # annotations only: numpy callers never import torch
+    import torch
 
 #: Added to squared normalised coordinates so log and fractional powers stay finite on the axes.
 EPS_SQ = 1e-12
@@ -47,26 +50,32 @@ def quaternion_to_matrix(q: torch.Tensor) -> torch.Tensor:
     return xp.stack(rows, -1).reshape(*q.shape[:-1], 3, 3)
 
 
-@numpy_in_numpy_out
-def matrix_to_quaternion(R: torch.Tensor) -> torch.Tensor:
-    """Unit quaternion ``(w, x, y, z)`` with ``w ≥ 0`` from rotation matrices ``(..., 3, 3)``."""
+def matrix_to_quaternion(R):
+    """Unit quaternion ``(w, x, y, z)`` with ``w ≥ 0`` from rotation matrices ``(..., 3, 3)`` (numpy or torch).
+
+    >>> import numpy as np
+    >>> matrix_to_quaternion(np.diag([1.0, -1.0, -1.0])).round(6).tolist()
+    [0.0, 1.0, 0.0, 0.0]
+    """
     check_shape(R, (3, 3), "R")
+    xp = ops(R)
     m = R
     tr = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
-    cands = torch.stack(
+    cands = xp.stack(
         [
-            torch.stack([1 + tr, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1),
-            torch.stack([m[..., 2, 1] - m[..., 1, 2], 1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2], m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], -1),
-            torch.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], 1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2], m[..., 1, 2] + m[..., 2, 1]], -1),
-            torch.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1], 1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2]], -1),
+            xp.stack([1 + tr, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1),
+            xp.stack([m[..., 2, 1] - m[..., 1, 2], 1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2], m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], -1),
+            xp.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], 1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2], m[..., 1, 2] + m[..., 2, 1]], -1),
+            xp.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1], 1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2]], -1),
         ],
-        dim=-2,
+        -2,
     )  # (..., 4, 4): row k is 4·q·q_k, best conditioned where q_k is largest
-    best = torch.stack([1 + tr, 1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2],
-                        1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2], 1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2]], -1).argmax(-1)
-    q = torch.gather(cands, -2, best[..., None, None].expand(*best.shape, 1, 4)).squeeze(-2)
-    q = q / q.norm(dim=-1, keepdim=True)
-    return torch.where(q[..., :1] < 0, -q, q)
+    best = xp.stack([1 + tr, 1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2],
+                     1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2], 1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2]], -1).argmax(-1)
+    flat, pick = cands.reshape(-1, 4, 4), best.reshape(-1)
+    q = flat[xp.arange(len(pick)), pick].reshape(*tuple(best.shape), 4)
+    q = q / xp.norm(q, -1, True)
+    return xp.where(q[..., :1] < 0, -q, q)
 
 
 def world_to_local(points: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor) -> torch.Tensor:
