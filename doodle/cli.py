@@ -250,16 +250,19 @@ def styles(preview: Path | None, strokes_path: Path | None, extra: tuple[str, ..
         click.echo(f"wrote {preview}")
 
 
-def _superquadric_count(ctx: click.Context, param: click.Parameter, value: str) -> Any:
-    if value == "auto":
-        return value
-    try:
-        n = int(value)
-    except ValueError:
-        n = -1
-    if not 0 <= n <= 64:
-        raise click.BadParameter(f"expected 'auto' or a number in [0, 64], got {value!r}")
-    return n
+def _count_or_auto(limit: int):
+    """Click callback: ``auto`` or an integer in ``[0, limit]``."""
+    def parse(ctx: click.Context, param: click.Parameter, value: str) -> Any:
+        if value == "auto":
+            return value
+        try:
+            n = int(value)
+        except ValueError:
+            n = -1
+        if not 0 <= n <= limit:
+            raise click.BadParameter(f"expected 'auto' or a number in [0, {limit}], got {value!r}")
+        return n
+    return parse
 
 
 def _log(msg: str) -> None:
@@ -270,11 +273,18 @@ def _log(msg: str) -> None:
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
-@click.option("--curves", type=int, default=32, show_default=True, help="Number of Bézier curves (a maximum: "
-              "curves that do not lie on lines are dropped).")
-@click.option("--superquadrics", default="auto", show_default=True, callback=_superquadric_count,
+@click.option("--curves", default="auto", show_default=True, callback=_count_or_auto(4096),
+              help="Bézier curves: 'auto' (discovery chooses how many) or a maximum.")
+@click.option("--superquadrics", default="auto", show_default=True, callback=_count_or_auto(64),
               help="Number of superquadrics, or 'auto' (chosen from the data).")
-@click.option("--iterations", type=int, default=1500, show_default=True, help="Steps of the curve stage.")
+@click.option("--discover/--no-discover", default=True, show_default=True,
+              help="Find curves from multi-view edge evidence (needs masks); --no-discover: the distance-field fit.")
+@click.option("--evidence-size", type=int, default=512, show_default=True,
+              help="Image size (larger side, px) for the 3D edge evidence.")
+@click.option("--evidence-voxels", type=int, default=192, show_default=True,
+              help="Evidence grid voxels along the object's longest side.")
+@click.option("--iterations", type=int, default=None,
+              help="Steps of the distance-field curve stage [default: 0 after discovery, else 1500].")
 @click.option("--sq-iterations", type=int, default=400, show_default=True, help="Steps of the superquadric stage.")
 @click.option("--size", type=int, default=256, show_default=True, help="Working resolution (larger image side, px).")
 @click.option("--views-per-step", type=int, default=8, show_default=True)
@@ -289,9 +299,10 @@ def _log(msg: str) -> None:
 @click.option("--preview-every", type=int, default=250, show_default=True)
 @click.option("--checkpoint-every", type=int, default=200, show_default=True)
 @click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written while fitting.")
-def fit(scene_dir: Path, out_path: Path, curves: int, superquadrics: Any, iterations: int, sq_iterations: int,
-        size: int, views_per_step: int, seed: int, device: str, split: str, init: str, objective: str,
-        preview_dir: Path | None, preview_every: int, checkpoint_every: int, resume: bool) -> None:
+def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discover: bool, evidence_size: int,
+        evidence_voxels: int, iterations: int | None, sq_iterations: int, size: int, views_per_step: int, seed: int,
+        device: str, split: str, init: str, objective: str, preview_dir: Path | None, preview_every: int,
+        checkpoint_every: int, resume: bool) -> None:
     """Fit strokes to the posed images in SCENE (NeRF-synthetic, nerfstudio, COLMAP, or plain photos).
 
     Ctrl-C stops early and still writes the best strokes so far; --resume continues from the checkpoint.
@@ -301,10 +312,11 @@ def fit(scene_dir: Path, out_path: Path, curves: int, superquadrics: Any, iterat
     from .scenes import load_scene_at_size
     from .strokes import write_strokes
 
-    cfg = FitConfig(curves=curves, superquadrics=superquadrics, iterations=iterations, sq_iterations=sq_iterations,
+    cfg = FitConfig(curves=curves, superquadrics=superquadrics, discover=discover, evidence_size=evidence_size,
+                    evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
                     size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
                     init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
-    scene = load_scene_at_size(scene_dir, split, size)
+    scene = load_scene_at_size(scene_dir, split, max(size, evidence_size) if discover else size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
     ckpt = out_path.with_name(out_path.name + ".ckpt")
     result = fit_scene(scene, cfg, checkpoint=ckpt, resume=resume, log=_log, progress=True)
@@ -324,15 +336,28 @@ def fit(scene_dir: Path, out_path: Path, curves: int, superquadrics: Any, iterat
 @click.option("--size", type=int, default=256, show_default=True, help="Evaluation resolution (px).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False, path_type=Path),
               help="Also write the metrics (with per-view rows) as JSON here ('-' for stdout only).")
-def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, json_out: Path | None) -> None:
-    """Measure STROKES on SCENE's held-out views: line precision, silhouette recall, F-score, IoU, size."""
+@click.option("--gt-curves", "gt_dir", type=click.Path(path_type=Path),
+              help="Ground-truth feature curves (ABC: mesh.obj, features.yml, normalisation.json): also report "
+                   "3D Chamfer distance, precision, recall and F.")
+@click.option("--gt-threshold", type=float, default=0.02, show_default=True, callback=_positive_float,
+              help="Distance for 3D precision and recall (scene units).")
+def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, json_out: Path | None,
+             gt_dir: Path | None, gt_threshold: float) -> None:
+    """Measure STROKES on SCENE's held-out views: line precision, silhouette recall, F-score, IoU, size;
+    with --gt-curves, also the 3D curve accuracy as NEF and EMAP report it."""
     from .atomic import write_text
     from .evaluate import evaluate, format_metrics
     from .scenes import load_scene_at_size
     from .strokes import read_strokes
 
     s = read_strokes(strokes)
-    metrics = evaluate(s, load_scene_at_size(scene_dir, split, size), tau=tau, size=size)
+    truth = None
+    if gt_dir is not None:
+        from .curvemetrics import read_abc_ground_truth
+
+        truth = read_abc_ground_truth(gt_dir)
+    metrics = evaluate(s, load_scene_at_size(scene_dir, split, size), tau=tau, size=size, truth=truth,
+                       gt_threshold=gt_threshold)
     if json_out is not None and str(json_out) == "-":
         click.echo(json.dumps(metrics, indent=1))
         return

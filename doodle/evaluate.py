@@ -20,8 +20,10 @@ from .strokes import StrokeSet, dumps
 from .strokes.binary import encode
 
 
-def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256) -> dict[str, Any]:
-    """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px)."""
+def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256, truth=None,
+             gt_threshold: float = 0.02) -> dict[str, Any]:
+    """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px); with
+    ``truth`` (:class:`~doodle.curvemetrics.GroundTruthCurves`) also the 3D curve metrics under ``"curves_3d"``."""
     work = working_scene(scene, size)
     drawings = draw_many(strokes, work.cameras, DrawOptions(tolerance=0.25))
     rows = []
@@ -48,6 +50,10 @@ def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256
     out["f_score"] = round(2 * p * r / (p + r), 4) if p is not None and r is not None and p + r > 0 else None
     out["curves"], out["superquadrics"] = len(strokes.curves), len(strokes.superquadrics)
     out["bytes_json"], out["bytes_binary"] = len(dumps(strokes).encode()), len(encode(strokes))
+    if truth is not None:
+        from .curvemetrics import curve_metrics
+
+        out["curves_3d"] = curve_metrics(strokes.curves.control_points, truth, gt_threshold)
     out["per_view"] = rows
     return out
 
@@ -65,4 +71,9 @@ def format_metrics(m: dict[str, Any]) -> str:
         f"superquadric IoU      {f(m['silhouette_iou'])}",
         f"strokes               {m['curves']} curves, {m['superquadrics']} superquadrics",
         f"file size             {m['bytes_json']} B JSON, {m['bytes_binary']} B binary",
+        *([] if "curves_3d" not in m else [
+            f"3D curves (≤ {m['curves_3d']['threshold']:g})  precision {f(m['curves_3d']['precision'])}, recall "
+            f"{f(m['curves_3d']['recall'])}, F {f(m['curves_3d']['f_score'])}, Chamfer "
+            f"{'—' if m['curves_3d']['chamfer'] is None else format(m['curves_3d']['chamfer'], '.4f')} "
+            f"({m['curves_3d']['gt_curves']} sharp curves)"]),
     ])

@@ -64,7 +64,7 @@ class TestShortFits:
         scene = load_scene(chair_dir)
         gt = load_ground_truth(chair_dir)["feature_edges"]
         tol = 0.05 * scene.frame.radius  # 96 px working size: 1 px ≈ 3 % of the radius
-        cfg = FitConfig(curves=12, superquadrics=0, iterations=250, prune_curves=False, **QUICK)
+        cfg = FitConfig(curves=12, superquadrics=0, iterations=250, prune_curves=False, discover=False, **QUICK)
         before = fit(scene, FitConfig(**{**vars(cfg), "iterations": 0}), progress=False, log=lambda m: None)
         after = fit(scene, cfg, progress=False, log=lambda m: None)
         p0, r0 = edge_scores(before.strokes.curves.control_points, gt, tol)
@@ -80,10 +80,17 @@ class TestShortFits:
         test = working_scene(load_scene(snowman_dir, split="test"), 96)
         assert silhouette_iou(res.strokes.superquadrics, test.cameras, test.masks) > 0.8
 
-    def test_auto_chooses_curves_for_a_boxy_object(self, chair_dir):
+    def test_auto_draws_a_boxy_object_with_curves(self, chair_dir):
+        """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
+        kept, and the curves carry face normals for hidden-line removal."""
         logs = []
-        res = fit(load_scene(chair_dir), FitConfig(curves=4, iterations=5, **QUICK), progress=False, log=logs.append)
-        assert len(res.strokes.superquadrics) == 0 and any("straight edges" in m for m in logs)
+        res = fit(load_scene(chair_dir), FitConfig(sq_iterations=40, **QUICK), progress=False, log=logs.append)
+        s = res.strokes
+        assert len(s.superquadrics) == 0 and len(s.curves) >= 12
+        assert s.curves.normals is not None and s.curves.normals.shape == (len(s.curves), 2, 2, 3)
+        gt = load_ground_truth(chair_dir)["feature_edges"]
+        p, r = edge_scores(s.curves.control_points, gt, 0.04 * load_scene(chair_dir).frame.radius)
+        assert p > 0.7 and r > 0.6, (p, r)
 
     def test_auto_grows_superquadrics_for_a_smooth_object(self, snowman_dir):
         logs = []

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from doodle.exporters.fitcurve import fit_cubics, fit_cubics_many
+from doodle.strokes.fitcurve import fit_cubics, fit_cubics_many
 from doodle.exporters.visibility import segments_blocked
 from doodle.strokes import SuperquadricSet
 from doodle.strokes.bezier import bezier_points

@@ -11,7 +11,7 @@ from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
-from .fitcurve import fit_cubics_many
+from ..strokes.fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
 from .silhouettes import contour_polylines, split_runs
 from .visibility import occluded
@@ -97,7 +97,8 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
         for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near)):
             mine.extend(ops)
     if opt.curves and len(strokes.curves):
-        for mine, ops in zip(paths, _curve_paths(strokes.curves.control_points, sq, cameras, opt, margin, near)):
+        normals = strokes.curves.normals if opt.hidden != "show" else None
+        for mine, ops in zip(paths, _curve_paths(strokes.curves.control_points, normals, sq, cameras, opt, margin, near)):
             mine.extend(ops)
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
 
@@ -153,18 +154,50 @@ def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptio
     return out
 
 
-def _curve_paths(controls: np.ndarray, sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions,
-                 margin: float | None, near: float) -> list[list[PathOp]]:
-    """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step."""
+def back_facing(points: np.ndarray, t: np.ndarray, normals: np.ndarray, eyes: np.ndarray,
+                directions: np.ndarray, orthographic: np.ndarray, grazing: float = 0.3) -> np.ndarray:
+    """Whether both faces along a curve turn away from the camera at curve points ``(P, 3)``.
+
+    Args:
+        t: ``(P,)`` curve parameters; normals: ``(P, 2, 2, 3)`` each point's curve normals (start/end × face).
+        eyes, directions: ``(P, 3)`` the camera centre and viewing direction of each point's view.
+        orthographic: ``(P,)`` whether the view is orthographic (then the direction decides, not the eye).
+        grazing: a face turned away by less than this cosine (about 17°) still counts as facing: the edge
+            is then on the outline, and normals read off a voxel hull are only that accurate.
+    Returns:
+        ``(P,)`` bool. Zero normals never hide.
+    """
+    n = (1.0 - t)[:, None, None] * normals[:, 0] + t[:, None, None] * normals[:, 1]  # (P, 2, 3)
+    to_eye = np.where(orthographic[:, None], -directions, eyes - points)
+    to_eye /= np.maximum(np.linalg.norm(to_eye, axis=1, keepdims=True), 1e-12)
+    length = np.linalg.norm(n, axis=2)
+    cos = np.einsum("pfk,pk->pf", n, to_eye) / np.maximum(length, 1e-12)
+    facing = (cos > -grazing) | (length < 1e-6)
+    return ~facing.any(axis=1)
+
+
+def _curve_paths(controls: np.ndarray, normals: np.ndarray | None, sq: SuperquadricSet, cameras: list[Camera],
+                 opt: DrawOptions, margin: float | None, near: float) -> list[list[PathOp]]:
+    """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
+
+    A curve point is hidden when the superquadrics cover it (``margin`` given) or when both faces of its
+    ``normals`` turn away from the camera."""
     intervals = [(v, n, a, b) for v, camera in enumerate(cameras) for n, control in enumerate(controls)
                  for a, b in depth_intervals(control, camera, near)]
     interval_view = np.array([v for v, _, _, _ in intervals], int)
-    if margin is None:
-        def is_hidden(points, rows):
-            return np.zeros(len(points), bool)
-    else:
-        def is_hidden(points, rows):
-            return occluded(points, interval_view[rows], cameras, sq, margin)
+    interval_curve = np.array([n for _, n, _, _ in intervals], int)
+    eyes = np.array([c.center for c in cameras]).reshape(-1, 3)
+    dirs = np.array([c.forward for c in cameras]).reshape(-1, 3)
+    ortho = np.array([c.projection == "orthographic" for c in cameras], bool)
+
+    def is_hidden(points, rows, t):
+        hidden = np.zeros(len(points), bool)
+        if margin is not None:
+            hidden |= occluded(points, interval_view[rows], cameras, sq, margin)
+        if normals is not None:
+            v = interval_view[rows]
+            hidden |= back_facing(points, t, normals[interval_curve[rows]], eyes[v], dirs[v], ortho[v])
+        return hidden
     runs = visibility_runs(controls, [(n, a, b) for _, n, a, b in intervals], is_hidden)
     pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]

@@ -118,9 +118,9 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     Args:
         controls: ``(N, 4, 3)`` curves.
         intervals: ``(curve index, a, b)`` triples.
-        is_hidden: ``(points (P, 3), rows (P,))`` → bool ``(P,)``, where ``rows`` gives the interval each point
-            belongs to; called once for the samples of all intervals and once per refinement round for all
-            state changes together.
+        is_hidden: ``(points (P, 3), rows (P,), t (P,))`` → bool ``(P,)``, where ``rows`` gives the interval
+            each point belongs to and ``t`` its curve parameter; called once for the samples of all intervals
+            and once per refinement round for all state changes together.
         refine, split: each round cuts the bracket around every state change into ``split`` parts (a
             ``split``-ary search: two rounds of 16 locate a change as well as eight bisection steps, in a
             quarter of the calls).
@@ -135,7 +135,7 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     s = np.linspace(0, 1, samples)
     t = a[:, None] + (b - a)[:, None] * s  # (I, S)
     pts = bezier_points(controls[idx], t)  # (I, S, 3)
-    state = is_hidden(pts.reshape(-1, 3), np.repeat(np.arange(len(idx)), samples)).reshape(len(idx), samples)
+    state = is_hidden(pts.reshape(-1, 3), np.repeat(np.arange(len(idx)), samples), t.ravel()).reshape(len(idx), samples)
     ci, cj = np.nonzero(state[:, 1:] != state[:, :-1])  # changes between sample j and j+1 of interval i
     lo, hi = t[ci, cj], t[ci, cj + 1]
     left = state[ci, cj]
@@ -144,7 +144,7 @@ def visibility_runs(controls: np.ndarray, intervals: list[tuple[int, float, floa
     for _ in range(refine if len(ci) else 0):
         tm = lo[:, None] + (hi - lo)[:, None] * inner  # (C, split − 1)
         p = bezier_points(ctrl, tm)
-        same = is_hidden(p.reshape(-1, 3), np.repeat(ci, split - 1)).reshape(tm.shape) == left[:, None]
+        same = is_hidden(p.reshape(-1, 3), np.repeat(ci, split - 1), tm.ravel()).reshape(tm.shape) == left[:, None]
         # The first sample that differs from the left state ends the bracket (the state changes once inside).
         first = np.where(same.all(axis=1), split - 1, np.argmin(same, axis=1))
         rows = np.arange(len(tm))

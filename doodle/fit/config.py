@@ -9,10 +9,30 @@ from typing import Literal, Union
 InitMethod = Literal["auto", "points", "hull", "bbox"]
 
 
+#: With ``curves="auto"``, discovery chooses at most this many.
+AUTO_MAX_CURVES = 96
+
+
 @dataclass
 class FitConfig:
-    curves: int = 32
-    """Number of cubic Bézier curves (view-independent strokes)."""
+    curves: Union[int, Literal["auto"]] = "auto"
+    """Cubic Bézier curves (view-independent strokes): ``"auto"`` lets stroke discovery choose how many (at
+    most ``AUTO_MAX_CURVES``); a number is an upper bound."""
+    discover: bool = True
+    """Find the curves from multi-view edge evidence (needs masks) and refine them; ``False``: fit curves
+    started at random hull points with the distance-field objective alone (the earlier method)."""
+    evidence_size: int = 512
+    """Image size (larger side, px) for the edge evidence; never enlarged."""
+    evidence_voxels: int = 192
+    """Evidence grid voxels along the object's longest side."""
+    discovery_min_gain: float = 0.0005
+    """Discovery keeps adding strokes while the next one newly explains at least this share of all line
+    pixels over the views."""
+    outline_coverage: float = 0.9
+    """``superquadrics="auto"`` fits none when the discovered curves already draw this share of the
+    silhouettes' outline pixels; otherwise it fits them and keeps those whose outline is right and new."""
+    thin: float = 0.06
+    """Parts thinner than this share of the object's size are drawn by curves, never by superquadrics."""
     superquadrics: Union[int, Literal["auto"]] = "auto"
     """Number of superquadrics, or ``"auto"``: none when the images' lines are mostly long straight edges
     (straightness ≥ ``straight_threshold``: boxy objects, which curves draw exactly); otherwise fit up to
@@ -20,8 +40,9 @@ class FitConfig:
     cannot explain the silhouette."""
     straight_threshold: float = 0.6
     max_superquadrics: int = 8
-    iterations: int = 1500
-    """Adam steps of the curve stage."""
+    iterations: int | None = None
+    """Adam steps of the distance-field curve stage: default 0 after discovery (discovered curves are
+    already polished on the 3D evidence, which is sharper than the working images), 1500 without it."""
     sq_iterations: int = 400
     """Adam steps of the superquadric stage (before the curve stage, as in the paper)."""
     size: int = 256
@@ -45,6 +66,16 @@ class FitConfig:
     checkpoint_every: int = 200
     preview_every: int = 250
     preview_dir: Path | None = None
+
+    @property
+    def max_curves(self) -> int:
+        return AUTO_MAX_CURVES if self.curves == "auto" else int(self.curves)
+
+    @property
+    def curve_iterations(self) -> int:
+        if self.iterations is not None:
+            return self.iterations
+        return 0 if self.discover else 1500
 
     def to_dict(self) -> dict:
         d = asdict(self)

@@ -7,7 +7,7 @@ import copy
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Callable
 
 import torch
@@ -26,6 +26,14 @@ class StageState:
     best_loss: float = float("inf")
     ema: float | None = None
     history: list[dict[str, float]] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """Plain types and tensors only (checkpoints are read with ``weights_only``)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "StageState":
+        return cls(**{f.name: d[f.name] for f in fields(cls) if f.name in d})
 
 
 def run_stage(

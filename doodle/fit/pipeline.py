@@ -27,7 +27,13 @@ from .optimize import StageState, run_stage
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
+MAX_CHECKPOINT_BYTES = 1 << 30
+#: Options that must match to resume a checkpoint.
+#: Gain (share of line pixels) of the strong curves that superquadric outlines are compared with.
+STRONG_GAIN = 0.002
+RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
+               "evidence_size", "evidence_voxels", "discovery_min_gain")
 
 
 @dataclass
@@ -49,16 +55,21 @@ def _device(name: str) -> torch.device:
 
 
 def _validate(cfg: FitConfig, scene: Scene) -> None:
-    if cfg.curves < 0 or cfg.curves > 4096:
-        raise DoodleError(f"--curves must be in [0, 4096], got {cfg.curves}")
+    if cfg.curves != "auto" and (isinstance(cfg.curves, bool) or not isinstance(cfg.curves, int)
+                                 or not 0 <= cfg.curves <= 4096):
+        raise DoodleError(f"--curves must be 'auto' or in [0, 4096], got {cfg.curves!r}")
     if cfg.superquadrics != "auto" and not 0 <= int(cfg.superquadrics) <= 64:
         raise DoodleError(f"--superquadrics must be 'auto' or in [0, 64], got {cfg.superquadrics}")
     if cfg.curves == 0 and cfg.superquadrics == 0:
         raise DoodleError("nothing to fit: --curves 0 and --superquadrics 0")
-    if cfg.iterations < 0 or cfg.sq_iterations < 0:
+    if (cfg.iterations is not None and cfg.iterations < 0) or cfg.sq_iterations < 0:
         raise DoodleError("--iterations must not be negative")
     if not 16 <= cfg.size <= 4096:
         raise DoodleError(f"--size must be in [16, 4096], got {cfg.size}")
+    if not 64 <= cfg.evidence_size <= 4096:
+        raise DoodleError(f"--evidence-size must be in [64, 4096], got {cfg.evidence_size}")
+    if not 32 <= cfg.evidence_voxels <= 512:
+        raise DoodleError(f"--evidence-voxels must be in [32, 512], got {cfg.evidence_voxels}")
     if cfg.views_per_step < 1:
         raise DoodleError(f"--views-per-step must be at least 1, got {cfg.views_per_step}")
     if len(scene) < 2:
@@ -207,20 +218,38 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
     return params, sq_stage(params, max(20, cfg.sq_iterations // 2), "superquadrics (refine)")
 
 
-def _save_checkpoint(path: Path, payload: dict) -> None:
-    with atomic_path(path) as tmp:
-        torch.save(payload, tmp)
+def _save_checkpoint(path: Path, payload: dict) -> bool:
+    """Write a checkpoint atomically; on failure (full disk, no permission) warn and carry on."""
+    try:
+        with atomic_path(path) as tmp:
+            torch.save(payload, tmp)
+        return True
+    except (OSError, RuntimeError) as exc:  # torch reports a full disk as RuntimeError
+        import warnings
+
+        warnings.warn(f"{path}: checkpoint not written ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); "
+                      "fitting goes on", RuntimeWarning, stacklevel=2)
+        return False
 
 
 def load_checkpoint(path: Path) -> dict:
+    """Read a checkpoint: tensors and plain types only (``weights_only``), so a crafted file runs no code."""
     try:
-        ck = torch.load(path, map_location="cpu", weights_only=False)
+        if path.stat().st_size > MAX_CHECKPOINT_BYTES:
+            raise DoodleError(f"{path}: larger than {MAX_CHECKPOINT_BYTES} bytes; not a doodle checkpoint")
+        ck = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
         raise DoodleError(f"{path}: no checkpoint to resume from") from None
-    except Exception as exc:  # torch raises many types for corrupt files
-        raise DoodleError(f"{path}: not a readable checkpoint ({type(exc).__name__})") from None
-    if not isinstance(ck, dict) or ck.get("version") != CHECKPOINT_VERSION:
-        raise DoodleError(f"{path}: not a doodle checkpoint of version {CHECKPOINT_VERSION}")
+    except DoodleError:
+        raise
+    except Exception as exc:  # torch raises many types for corrupt or foreign (pickled-object) files
+        raise DoodleError(f"{path}: not a doodle checkpoint, or one that would run code when read "
+                          f"({type(exc).__name__})") from None
+    if not isinstance(ck, dict) or ck.get("format") != "doodle-checkpoint":
+        raise DoodleError(f"{path}: not a doodle checkpoint")
+    if ck.get("version") != CHECKPOINT_VERSION:
+        raise DoodleError(f"{path}: checkpoint version {ck.get('version')!r}; this doodle resumes version "
+                          f"{CHECKPOINT_VERSION} (start the fit again)")
     return ck
 
 
@@ -242,7 +271,12 @@ def _preview(strokes_fn: Callable[[], StrokeSet], cameras, out_dir: Path, tag: s
 
 def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.PathLike | None = None,
         resume: bool = False, log: Callable[[str], None] = print, progress: bool = True) -> FitResult:
-    """Fit a stroke set to a scene. See :class:`FitConfig` for the options."""
+    """Fit a stroke set to a scene. See :class:`FitConfig` for the options.
+
+    With masks (and ``discover``), curves are found from multi-view edge evidence (:mod:`.discover`), the
+    superquadrics explain the silhouettes the curves do not draw, and a short stage refines the curves
+    with the superquadrics frozen. Without masks, curves start at SfM points and are fitted from there.
+    """
     cfg = config or FitConfig()
     _validate(cfg, scene)
     device = _device(cfg.device)
@@ -256,24 +290,51 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     ckpt_path = Path(checkpoint) if checkpoint else None
     ck = load_checkpoint(ckpt_path) if (resume and ckpt_path) else None
     if ck is not None:
-        for key in ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective"):
-            if ck["config"][key] != getattr(cfg, key):
-                raise DoodleError(f"{ckpt_path}: checkpoint was made with {key}={ck['config'][key]!r}, "
-                                  f"not {getattr(cfg, key)!r}; use the same options to resume")
+        for key in RESUME_KEYS:
+            if ck["config"].get(key) != cfg.to_dict()[key]:
+                raise DoodleError(f"{ckpt_path}: checkpoint was made with {key}={ck['config'].get(key)!r}, "
+                                  f"not {cfg.to_dict()[key]!r}; use the same options to resume")
         say(f"resuming from {ckpt_path} ({ck['stage']} stage, step {ck['step']})")
 
     work = working_scene(scene, cfg.size)
     rng = np.random.default_rng(cfg.seed)
     gen = torch.Generator(device=device)
     gen.manual_seed(cfg.seed)
-    surface, interior, method = initial_points(work, cfg.init, rng, say)
-    say(f"initialisation: {dict(points='SfM points', hull='visual hull', bbox='random in the bounding box')[method]}"
-        f" ({len(surface)} candidate points)")
     objective = make_objective(cfg.objective)
     frame = scene.frame
+    discovering = cfg.discover and work.masks is not None and cfg.curves != 0
+    normals: np.ndarray | None = None
+    candidates = strong = None
+    if discovering:
+        if ck is not None and ck.get("discovered") is not None:
+            start = np.asarray(ck["discovered"]["control_points"].numpy(), dtype=np.float64)
+            normals = np.asarray(ck["discovered"]["normals"].numpy(), dtype=np.float64)
+            outline = float(ck["discovered"]["outline"])
+        else:
+            from .discover import choose_curves, find_candidates
+
+            candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels, log=say)
+            # the strong curves decide what superquadrics are needed for; the final choice comes after them
+            strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
+            start, normals, outline = strong.control_points, strong.normals, strong.outline
+        interior = surface = None
+        method = "evidence"
+    else:
+        surface, interior, method = initial_points(work, cfg.init, rng, say)
+        say(f"initialisation: {dict(points='SfM points', hull='visual hull', bbox='random in the bounding box')[method]}"
+            f" ({len(surface)} candidate points)")
+        n = max(cfg.max_curves, 1)
+        start = initial_curves(farthest_points(surface, n, rng), 0.15 * frame.radius, rng)[: cfg.max_curves]
+
     wants_sq = cfg.superquadrics != 0 and work.masks is not None
     if cfg.superquadrics != 0 and work.masks is None:
         say("superquadrics: the scene has no masks, fitting curves only")
+    elif cfg.superquadrics == "auto" and discovering:
+        if outline >= cfg.outline_coverage:
+            wants_sq = False
+            say(f"superquadrics: none (the curves draw {outline:.0%} of the outlines)")
+        else:
+            say(f"superquadrics: fitting up to {cfg.max_superquadrics} (the curves draw {outline:.0%} of the outlines)")
     elif cfg.superquadrics == "auto" and ck is None:
         from .targets import straightness
 
@@ -283,46 +344,80 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             say(f"superquadrics: none ({score:.0%} of the image lines are long straight edges: curves draw them)")
         else:
             say(f"superquadrics: fitting up to {cfg.max_superquadrics} ({score:.0%} of the image lines are straight)")
+    sq_scene = work
+    if wants_sq and discovering:
+        from dataclasses import replace
+
+        from .volume import thick_volume
+
+        volume = thick_volume(work, cfg.thin)
+        interior, sq_scene = volume.interior, replace(work, masks=volume.masks)
+        say(f"superquadrics: {volume.thin_share:.0%} of the mask pixels are thin parts, left to curves")
+        if len(interior) < 10:
+            wants_sq = False
+            say("superquadrics: no thick part; curves only")
 
     # A fixed count starts from farthest points of the hull; "auto" grows its own set in the stage.
     fixed = wants_sq and cfg.superquadrics != "auto"
     sq_params = SuperquadricParams.from_set(initial_superquadrics(farthest_points(interior, int(cfg.superquadrics), rng), frame.radius)) \
         if fixed else None
-    curve_params = CurveParams(initial_curves(farthest_points(surface, max(cfg.curves, 1), rng), 0.15 * frame.radius, rng)[: cfg.curves])
+    curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3)))
     curve_state = StageState()  # the superquadric stage restarts when resumed, so only this one is kept
     stage = "superquadrics" if wants_sq else "curves"
     final_sq: SuperquadricSet | None = None
     if ck is not None:
         stage = ck["stage"]
         if ck.get("final_superquadrics") is not None:
-            final_sq = SuperquadricSet(*(np.asarray(a) for a in ck["final_superquadrics"]))
+            final_sq = SuperquadricSet(*(t.numpy().astype(np.float64) for t in ck["final_superquadrics"]))
         if ck.get("sq_params") is not None and sq_params is not None:
             sq_params.load_state_dict(ck["sq_params"])
-        curve_params.load_state_dict(ck["curve_params"])
+        if ck["curve_params"]["control"].shape == curve_params.control.shape:
+            curve_params.load_state_dict(ck["curve_params"])
         if stage == "curves":
-            curve_state = ck["stage_state"]
+            curve_state = StageState.from_dict(ck["stage_state"])
         gen.set_state(ck["generator"])
     if sq_params is not None:
         sq_params.to(device)
     curve_params.to(device)
 
+    def current_curves() -> CurveSet:
+        return CurveSet(curve_params.to_set(cfg.width_px).control_points, cfg.width_px, normals)
+
     def current_strokes() -> StrokeSet:
         sq = final_sq if final_sq is not None else (sq_params.to_set() if sq_params is not None else SuperquadricSet())
-        return _stroke_set(frame, scene, curve_params.to_set(cfg.width_px) if stage == "curves" else CurveSet(),
-                           sq, cfg, method, 0.0, messages)
+        return _stroke_set(frame, scene, current_curves() if stage == "curves" else CurveSet(), sq, cfg, method, 0.0)
 
     def checkpointer(stage_name: str):
         def save(state: StageState) -> None:
             if ckpt_path is None:
                 return
+            f32 = lambda a: torch.tensor(np.asarray(a), dtype=torch.float64)  # noqa: E731
             _save_checkpoint(ckpt_path, {
-                "version": CHECKPOINT_VERSION, "config": cfg.to_dict(), "stage": stage_name, "step": state.step,
-                "stage_state": state, "sq_params": sq_params.state_dict() if sq_params is not None else None,
+                "format": "doodle-checkpoint", "version": CHECKPOINT_VERSION, "config": cfg.to_dict(),
+                "stage": stage_name, "step": state.step, "stage_state": state.to_dict(),
+                "sq_params": sq_params.state_dict() if sq_params is not None else None,
                 "curve_params": curve_params.state_dict(), "generator": gen.get_state(),
                 "final_superquadrics": None if final_sq is None else
-                [final_sq.scale, final_sq.shape, final_sq.rotation, final_sq.translation],
+                [f32(final_sq.scale), f32(final_sq.shape), f32(final_sq.rotation), f32(final_sq.translation)],
+                "discovered": None if not discovering else
+                {"control_points": f32(start), "normals": f32(normals), "outline": float(outline)},
             })
         return save
+
+    def finish_discovery(sq: SuperquadricSet) -> None:
+        """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
+        nonlocal start, normals, curve_params
+        from .discover import choose_curves, outline_pixel_ids
+
+        taken = outline_pixel_ids(candidates, sq, frame) if len(sq) else None
+        found = choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, log=say)
+        start, normals = found.control_points, found.normals
+        curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
+
+    if discovering and candidates is not None and not wants_sq:
+        finish_discovery(SuperquadricSet())
+    if ck is None and discovering and stage == "curves":
+        checkpointer(stage)(StageState())  # discovery is not repeated on resume
 
     def previewer(tag: str):
         if cfg.preview_dir is None:
@@ -331,7 +426,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     interrupted = False
     if stage == "superquadrics":
-        targets = build_targets(work, str(device))
+        targets = build_targets(sq_scene, str(device))
 
         def sq_stage(params: SuperquadricParams, steps: int, label: str = "superquadrics") -> bool:
             objective.begin(targets, frame, gen)
@@ -341,47 +436,58 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             return stopped
 
         if cfg.superquadrics == "auto":
-            sq_params, interrupted = grow_superquadrics(interior, work, frame, cfg, sq_stage, rng, device, say)
+            sq_params, interrupted = grow_superquadrics(interior, sq_scene, frame, cfg, sq_stage, rng, device, say)
         else:
             interrupted = sq_stage(sq_params, cfg.sq_iterations)
         final_sq = sq_params.to_set()
+        if discovering and cfg.superquadrics == "auto" and not interrupted:
+            from .evidence import object_lines
+            from .outlines import keep_outlines
+
+            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame, work.cameras,
+                                     [object_lines(i, m) for i, m in zip(work.images, work.masks)], log=say)
+        if discovering and candidates is not None and not interrupted:
+            finish_discovery(final_sq)
         say(f"superquadrics: {len(final_sq)} (training silhouette IoU "
-            f"{silhouette_iou(final_sq, work.cameras, work.masks):.3f})")
+            f"{silhouette_iou(final_sq, sq_scene.cameras, sq_scene.masks):.3f})")
         stage = "curves"
         checkpointer("curves")(StageState())
     if final_sq is None:
         final_sq = SuperquadricSet()
 
-    if not interrupted and cfg.curves > 0:
+    steps = cfg.curve_iterations
+    if not interrupted and len(curve_params) and steps > 0:
         exclude = silhouette_pixels(final_sq, frame, work.cameras) if len(final_sq) else None
         targets = build_targets(work, str(device), exclude)
         objective.begin(targets, frame, gen)
+        lr = cfg.lr_curves * frame.radius * (0.25 if discovering else 1.0)  # discovered curves only need polish
         _, interrupted = run_stage(
-            "curves", curve_params, lambda v: objective.curve_terms(curve_params, v), cfg.iterations, cfg.lr_curves * frame.radius,
-            targets.views, min(cfg.views_per_step, targets.views), gen, curve_state, checkpointer("curves"), cfg.checkpoint_every, previewer("curves"), cfg.preview_every, progress)
+            "curves", curve_params, lambda v: objective.curve_terms(curve_params, v), steps, lr,
+            targets.views, min(cfg.views_per_step, targets.views), gen, curve_state, checkpointer("curves"),
+            cfg.checkpoint_every, previewer("curves"), cfg.preview_every, progress)
     if interrupted:
         say("interrupted: keeping the best state so far")
         if ckpt_path is not None:
             checkpointer(stage)(curve_state if stage == "curves" else StageState())
-    curves = curve_params.to_set(cfg.width_px) if cfg.curves > 0 else CurveSet(width_px=cfg.width_px)
-    if cfg.prune_curves and len(curves) and stage == "curves":
+    curves = current_curves() if stage == "curves" else CurveSet(width_px=cfg.width_px)
+    if cfg.prune_curves and len(curves) and stage == "curves" and steps > 0 and not discovering:
         n_before = len(curves)
         curves, _ = prune_curves(curves, targets, cfg.curve_max_distance_px)
         say(f"curves: kept {len(curves)} of {n_before} (the others do not lie on lines across the views)")
     seconds = time.perf_counter() - clock_start
-    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, messages)
+    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds)
     if ckpt_path is not None and not interrupted:
         ckpt_path.unlink(missing_ok=True)
     return FitResult(strokes, interrupted, seconds, messages)
 
 
 def _stroke_set(frame: SceneFrame, scene: Scene, curves: CurveSet, sq: SuperquadricSet, cfg: FitConfig,
-                method: str, seconds: float, messages: list[str]) -> StrokeSet:
+                method: str, seconds: float) -> StrokeSet:
     return StrokeSet(
         frame=SceneFrame(frame.up.copy(), frame.center.copy(), frame.radius, DefaultCamera(**vars(frame.camera))),
         curves=curves, superquadrics=sq,
         provenance={"tool": f"doodle {__version__}", "source": scene.source, "objective": cfg.objective,
-                    "iterations": cfg.iterations, "superquadric_iterations": cfg.sq_iterations,
+                    "iterations": cfg.curve_iterations, "superquadric_iterations": cfg.sq_iterations,
                     "init": method, "seed": cfg.seed, "seconds": round(seconds, 2)},
     )
 

@@ -9,7 +9,11 @@ Layout (little-endian)::
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
                 rotations (M × (2 + 3·14) bits, "smallest three" quaternion components)
+                version 2 only: curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code
+                for a zero normal)
     trailer: u16 length + zlib(JSON of provenance and extras)
+
+Version 1 is written when the curves carry no normals (older readers read it); version 2 when they do.
 
 Positions are quantised on a grid whose step keeps the round-trip error ≤ 2.5e-4 of the scene radius
 (the bits per coordinate follow from the extent: 13 bits for a typical object). 32 curves and
@@ -30,7 +34,8 @@ from .fileio import FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION,
 from .model import StrokeSet
 
 MAGIC = b"DDLB"
-BINARY_VERSION = 1
+BINARY_VERSION = 2
+NORMAL_BITS = 6
 #: Round-trip tolerance of positions and scales, as a fraction of the scene radius.
 REL_TOLERANCE = 2.5e-4
 SHAPE_BITS = 12
@@ -66,6 +71,30 @@ def _quantise(x: np.ndarray, lo: float | np.ndarray, step: float, bits: int) -> 
     return np.clip(np.rint((x - lo) / step), 0, 2**bits - 1)
 
 
+def _octahedral(n: np.ndarray) -> np.ndarray:
+    """Unit vectors ``(K, 3)`` → codes ``(K, 2)`` on ``NORMAL_BITS`` bits (octahedral map; zero → top code)."""
+    top = 2**NORMAL_BITS - 1
+    norm = np.abs(n).sum(axis=1, keepdims=True)
+    zero = norm[:, 0] < 1e-9
+    p = n / np.where(norm > 1e-9, norm, 1.0)
+    folded = (1.0 - np.abs(p[:, ::-1][:, 1:])) * np.where(p[:, :2] >= 0, 1.0, -1.0)  # lower hemisphere
+    uv = np.where(p[:, 2:3] >= 0, p[:, :2], folded)
+    codes = np.clip(np.rint((uv + 1.0) / 2.0 * (top - 1)), 0, top - 1)
+    codes[zero] = top
+    return codes
+
+
+def _from_octahedral(codes: np.ndarray) -> np.ndarray:
+    top = 2**NORMAL_BITS - 1
+    uv = codes / (top - 1) * 2.0 - 1.0
+    z = 1.0 - np.abs(uv).sum(axis=1)
+    xy = np.where(z[:, None] >= 0, uv, (1.0 - np.abs(uv[:, ::-1])) * np.where(uv >= 0, 1.0, -1.0))
+    n = np.concatenate([xy, z[:, None]], axis=1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n[(codes == top).any(axis=1)] = 0.0
+    return n
+
+
 def encode(strokes: StrokeSet) -> bytes:
     """Encode a stroke set (see the module docstring for the layout)."""
     f, cam = strokes.frame, strokes.frame.camera
@@ -94,6 +123,9 @@ def encode(strokes: StrokeSet) -> bytes:
         for i in range(m):
             bits.append(_pack(np.array([largest[i]]), 2))
             bits.append(_pack(qbits[i], ROT_BITS))
+    normals = strokes.curves.normals if n else None
+    if normals is not None:
+        bits.append(_pack(_octahedral(normals.reshape(-1, 3)), NORMAL_BITS))
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     meta = {"provenance": strokes.provenance, "extra": strokes.extra}
@@ -101,7 +133,7 @@ def encode(strokes: StrokeSet) -> bytes:
     if len(trailer) > 65535:
         raise StrokeFileError("provenance too large for the binary format")
     return b"".join([
-        _HEAD.pack(MAGIC, BINARY_VERSION, n, m),
+        _HEAD.pack(MAGIC, 2 if normals is not None else 1, n, m),
         _FRAME.pack(*map(float, f.up), *map(float, f.center), float(f.radius), float(cam.fov_deg), float(cam.distance),
                     float(cam.elevation_deg), float(cam.azimuth_deg), int(cam.width), int(cam.height),
                     float(strokes.curves.width_px)),
@@ -126,8 +158,8 @@ def _decode(data: bytes) -> StrokeSet:
     magic, version, n, m = _HEAD.unpack_from(data, 0)
     if magic != MAGIC:
         raise StrokeFileError("not a binary stroke file (bad magic)")
-    if version != BINARY_VERSION:
-        raise StrokeFileError(f"version: unsupported binary version {version} (this doodle reads {BINARY_VERSION})")
+    if version not in (1, BINARY_VERSION):
+        raise StrokeFileError(f"version: unsupported binary version {version} (this doodle reads 1 and {BINARY_VERSION})")
     fr = _FRAME.unpack_from(data, _HEAD.size)
     qo = _HEAD.size + _FRAME.size
     *origin, pos_step, scale_step, pos_bits, scale_bits = _QUANT.unpack_from(data, qo)
@@ -136,6 +168,8 @@ def _decode(data: bytes) -> StrokeSet:
     if not all(math.isfinite(v) for v in (*origin, pos_step, scale_step)):
         raise StrokeFileError("quantisation parameters are not finite")
     n_bits = (n * 12 + m * 3) * pos_bits + m * 3 * scale_bits + m * 2 * SHAPE_BITS + m * (2 + 3 * ROT_BITS)
+    if version == 2:
+        n_bits += n * 4 * 2 * NORMAL_BITS
     start = qo + _QUANT.size
     stream_len = (n_bits + 7) // 8
     if len(data) < start + stream_len + 2:
@@ -169,13 +203,16 @@ def _decode(data: bytes) -> StrokeSet:
         w = math.sqrt(max(0.0, 1.0 - float((rest**2).sum())))
         rots[i] = np.insert(rest, largest, w)
         rots[i] /= np.linalg.norm(rots[i])
+    curves_doc: dict = {"control_points": cp.tolist(), "width_px": fr[13]}
+    if version == 2:
+        curves_doc["normals"] = _from_octahedral(take(n * 4 * 2, NORMAL_BITS).reshape(-1, 2)).reshape(n, 2, 2, 3).tolist()
     extra = meta.get("extra", {}) if isinstance(meta.get("extra", {}), dict) else {}
     doc = {
         "format": FORMAT, "version": VERSION,
         "scene": {"up": list(fr[0:3]), "center": list(fr[3:6]), "radius": fr[6],
                   "camera": {"fov_deg": fr[7], "distance": fr[8], "elevation_deg": fr[9], "azimuth_deg": fr[10],
                              "width": fr[11], "height": fr[12]}},
-        "curves": {"control_points": cp.tolist(), "width_px": fr[13]},
+        "curves": curves_doc,
         "superquadrics": [{"scale": scale[i].tolist(), "shape": shape[i].tolist(), "rotation": rots[i].tolist(),
                            "translation": trans[i].tolist()} for i in range(m)],
         "provenance": meta.get("provenance", {}),

@@ -31,7 +31,7 @@ _KNOWN = {
     "": {"format", "version", "scene", "curves", "superquadrics", "provenance"},
     "scene": {"up", "center", "radius", "camera"},
     "scene.camera": {"fov_deg", "distance", "elevation_deg", "width", "height", "azimuth_deg"},
-    "curves": {"control_points", "width_px"},
+    "curves": {"control_points", "width_px", "normals"},
 }
 
 
@@ -134,6 +134,7 @@ def _parse(data: Any) -> StrokeSet:
         for j, p in enumerate(curve):
             control[i, j] = _vector(p, 3, f"curves.control_points[{i}][{j}]")
     width_px = _number(curves_d.get("width_px", 1.5), "curves.width_px", 0.0, 1000.0, lo_open=True)
+    normals = _curve_normals(curves_d["normals"], len(cps)) if "normals" in curves_d else None
 
     sq_list = _required(top, "superquadrics", "")
     if not isinstance(sq_list, list):
@@ -162,7 +163,29 @@ def _parse(data: Any) -> StrokeSet:
 
     extra = {s: e for s, e in (("", _extras(top, "")), ("scene", _extras(scene, "scene")),
                                ("scene.camera", _extras(cam, "scene.camera")), ("curves", _extras(curves_d, "curves"))) if e}
-    return StrokeSet(frame, CurveSet(control, width_px), sq, dict(provenance), extra)
+    return StrokeSet(frame, CurveSet(control, width_px, normals), sq, dict(provenance), extra)
+
+
+def _curve_normals(value: Any, n: int) -> np.ndarray:
+    """``curves.normals``: per curve, ``[[start face a, start face b], [end face a, end face b]]``, each a
+    unit or zero 3-vector."""
+    if not isinstance(value, list) or len(value) != n:
+        raise _Invalid(f"curves.normals: expected one entry per curve ({n})")
+    out = np.zeros((n, 2, 2, 3))
+    for i, per_curve in enumerate(value):
+        if not isinstance(per_curve, list) or len(per_curve) != 2:
+            raise _Invalid(f"curves.normals[{i}]: expected [start, end]")
+        for j, pair in enumerate(per_curve):
+            if not isinstance(pair, list) or len(pair) != 2:
+                raise _Invalid(f"curves.normals[{i}][{j}]: expected two normals")
+            for k, vec in enumerate(pair):
+                name = f"curves.normals[{i}][{j}][{k}]"
+                v = _vector(vec, 3, name)
+                norm = float(np.linalg.norm(v))
+                if norm > 1e-9 and abs(norm - 1.0) > 1e-2:
+                    raise _Invalid(f"{name}: expected a unit vector or zero, norm is {norm:.4g}")
+                out[i, j, k] = v / norm if norm > 1e-9 else 0.0
+    return out
 
 
 def _checked_list(value: Any, n: int, name: str) -> list:
@@ -192,7 +215,10 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
             **extra.get("scene", {}),
         },
         "curves": {"control_points": _floats(strokes.curves.control_points.reshape(-1, 4, 3)) if len(strokes.curves) else [],
-                   "width_px": float(strokes.curves.width_px), **extra.get("curves", {})},
+                   "width_px": float(strokes.curves.width_px),
+                   **({"normals": [_floats(m) for m in np.round(strokes.curves.normals, 4)]}
+                      if strokes.curves.normals is not None and len(strokes.curves) else {}),
+                   **extra.get("curves", {})},
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
              "translation": _floats(sq.translation[i])}

@@ -40,13 +40,24 @@ class SceneFrame:
 
 @dataclass
 class CurveSet:
-    """View-independent strokes: ``N`` cubic Bézier curves, control points ``(N, 4, 3)``."""
+    """View-independent strokes: ``N`` cubic Bézier curves, control points ``(N, 4, 3)``.
+
+    ``normals`` (optional, ``(N, 2, 2, 3)``: at the start and the end of each curve, the normals of the two
+    faces that meet along it) say from where a curve can be seen: a point of a curve is hidden when both
+    faces turn away from the camera (normals are interpolated linearly along the curve). A zero normal means
+    "unknown": the curve is never hidden by it (a wire seen from every side).
+    """
 
     control_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 3)))
     width_px: float = 1.5
+    normals: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.control_points.shape[0])
+
+    def subset(self, keep: np.ndarray) -> "CurveSet":
+        """The curves selected by a boolean mask or index array."""
+        return CurveSet(self.control_points[keep], self.width_px, None if self.normals is None else self.normals[keep])
 
 
 @dataclass

@@ -1,6 +1,7 @@
-"""Fit 2D polylines with as few cubic Béziers as a tolerance allows (Schneider, Graphics Gems 1990).
+"""Fit polylines (2D or 3D) with as few cubic Béziers as a tolerance allows (Schneider, Graphics Gems 1990).
 
-Used for superquadric silhouettes, whose contours come out of marching squares as dense polylines. The
+Used for superquadric silhouettes, whose contours come out of marching squares as dense polylines, and for
+3D feature lines linked from edge evidence. The
 recursion of Schneider's algorithm runs breadth first and vectorised over every segment of every polyline
 given at once: one round fits all open segments (least squares with fixed end points and end tangent
 directions), improves the parameters of nearly fitting ones by Newton steps, and splits the rest — at their
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..strokes.bezier import bernstein, bezier_derivative, bezier_points
+from .bezier import bernstein, bezier_derivative, bezier_points
 
 _NEWTON_STEPS = 4
 _MAX_ROUNDS = 24
@@ -24,7 +25,7 @@ def _unit_rows(v: np.ndarray) -> np.ndarray:
 
 
 def _quadratic_tangents(prev: np.ndarray, mid: np.ndarray, nxt: np.ndarray) -> np.ndarray:
-    """Unit tangents ``(P, 2)`` at ``mid`` of the quadratics through ``prev, mid, nxt`` (chord-length spacing).
+    """Unit tangents ``(P, D)`` at ``mid`` of the quadratics through ``prev, mid, nxt`` (chord-length spacing).
 
     Second-order accurate, where the secant leaves an error floor the fit could only meet by splitting.
     """
@@ -56,7 +57,7 @@ def _prepare(points: np.ndarray, closed: bool, tangents: np.ndarray | None) -> t
         tan = None if tan is None else np.vstack([tan, tan[:1]])
     closed = closed and len(pts) > 3
     if len(pts) < 3:
-        t = _unit_rows((pts[-1] - pts[0])[None]) if len(pts) == 2 else np.zeros((1, 2))
+        t = _unit_rows((pts[-1] - pts[0])[None]) if len(pts) == 2 else np.zeros((1, pts.shape[1]))
         return pts, np.repeat(t, len(pts), axis=0)
     if closed:  # the seam is an ordinary interior vertex of the loop
         prev, nxt = np.vstack([pts[-2:-1], pts[:-2]]), pts[1:]
@@ -89,7 +90,7 @@ def _segment_max(values: np.ndarray, seg: np.ndarray, n: int) -> np.ndarray:
 
 
 def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
-    """Least-squares cubics ``(S, 4, 2)`` with fixed end points and end tangent directions, all segments.
+    """Least-squares cubics ``(S, 4, D)`` with fixed end points and end tangent directions, all segments.
 
     ``arc`` ``(S,)``: the polyline length of each segment; a handle longer than that (near-parallel end
     tangents make the normal equations ill-conditioned) would loop far off between the points."""
@@ -114,7 +115,7 @@ def _fit_segments(X, seg, u, P0, P3, T0, T1, arc):
 
 
 def _evaluate(ctrl: np.ndarray, seg: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Each point's segment at its parameter, ``(P, 2)``."""
+    """Each point's segment at its parameter, ``(P, D)``."""
     return bezier_points(ctrl[seg], u[:, None])[:, 0]
 
 
@@ -176,13 +177,13 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
     """Fit each polyline with consecutive cubics within ``tolerance`` of every vertex.
 
     Args:
-        polylines: ``(P_i, 2)`` arrays, ``P_i ≥ 1``.
+        polylines: ``(P_i, D)`` arrays, ``P_i ≥ 1`` (any dimension ``D``, the same for all).
         tolerance: maximum distance in the points' units.
         closed: per polyline, whether the last point joins the first.
-        tangents: per polyline, optional exact tangent directions ``(P_i, 2)`` at the vertices (either sign;
+        tangents: per polyline, optional exact tangent directions ``(P_i, D)`` at the vertices (either sign;
             the direction of travel is taken from the points); estimated from the points where ``None``.
     Returns:
-        Per polyline, ``(K_i, 4, 2)`` control points of consecutive cubics, ``K_i ≥ 1``, joined with
+        Per polyline, ``(K_i, 4, D)`` control points of consecutive cubics, ``K_i ≥ 1``, joined with
         tangent continuity at every split.
     """
     closed = closed or [False] * len(polylines)
@@ -250,7 +251,7 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
 
 def fit_cubics(points: np.ndarray, tolerance: float, closed: bool = False,
                tangents: np.ndarray | None = None) -> np.ndarray:
-    """Fit one polyline ``(P, 2)`` with cubic Béziers ``(K, 4, 2)`` within ``tolerance`` of every point.
+    """Fit one polyline ``(P, D)`` with cubic Béziers ``(K, 4, D)`` within ``tolerance`` of every point.
 
     >>> pts = np.stack([np.linspace(0, 1, 20), np.linspace(0, 1, 20) ** 2], 1)
     >>> segs = fit_cubics(pts, 1e-2)

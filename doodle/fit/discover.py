@@ -1,0 +1,340 @@
+"""Stroke discovery: 3D feature curves found from multi-view edge evidence, and how many to keep.
+
+1. **Evidence** (:mod:`.evidence`): every voxel near the visual hull votes with the views that see it.
+2. **Curves** (:mod:`.ridges`): ridge points of the evidence are linked into 3D polylines, split at corners
+   and fitted with cubic Béziers to a 3D tolerance (a straight edge is one cubic, a circle four).
+3. **Choice** (:func:`select_strokes`): candidates are taken greedily by how many line pixels they newly
+   explain across the views, minus the ink they put where no line is; the count is automatic — selection
+   stops when the best remaining stroke would newly explain less than ``min_gain`` (0.1 %) of all line
+   pixels — and ``max_curves`` only bounds it. A stroke that runs along one already chosen explains nothing new, so
+   duplicates are never taken.
+4. **Joins**: stroke ends that meet (within two voxels) are snapped to one point, so edges meet at corners.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from ..scenes import Scene
+from ..strokes.bezier import bezier_points
+from ..strokes.fitcurve import fit_cubics_many
+from .evidence import Evidence, _project, edge_evidence
+from .facing import curve_normals
+from .ridges import link_ridges, ridge_points
+
+
+@dataclass
+class Discovery:
+    """What discovery found: chosen cubics ``(N, 4, 3)`` and the numbers behind the choice."""
+
+    control_points: np.ndarray
+    normals: np.ndarray
+    """``(N, 2, 2, 3)`` face normals of each cubic (see :class:`~doodle.strokes.model.CurveSet`)."""
+    candidates: int
+    polylines: int
+    coverage: float
+    """Share of all line pixels (over the views) that the chosen strokes explain."""
+    outline: float
+    """Share of the masks' boundary pixels (the silhouettes) that the chosen strokes explain."""
+    gains: list[float] = field(default_factory=list)
+    voxel: float = 0.0
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+_NEIGHBOURS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+
+
+def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacing_px: float = 0.7
+                    ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """For each cubic: the line pixels it explains (global ids over ``views``), its off-line ink and its ink.
+
+    A cubic is sampled about ``spacing_px`` apart in the views; a sample counts in a view when the hull does
+    not hide it; it explains the line pixels of its 3 × 3 neighbourhood (within 1.5 px), and is off-line ink
+    when there are none.
+    """
+    rough = bezier_points(controls, np.linspace(0, 1, 9))
+    length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
+    n_samples = np.clip(np.ceil(length / ev.grid.voxel / spacing_px * 1.2).astype(int), 4, 4000)
+    P = np.concatenate([bezier_points(c, np.linspace(0, 1, n)) for c, n in zip(controls, n_samples)]).astype(np.float32)
+    owner = np.repeat(np.arange(len(controls)), n_samples)
+    off = np.zeros(len(controls))
+    ink = np.zeros(len(controls))
+    hit_owner, hit_pix = [], []
+    offset = 0
+    for v in views:
+        cam, lines = ev.cameras[v], ev.lines[v]
+        H, W = lines.shape
+        u, w, z = _project(cam, P)
+        ok = (z > 1e-6) & (u >= 1) & (w >= 1) & (u < W - 1) & (w < H - 1)
+        idx = np.flatnonzero(ok)
+        idx = idx[z[idx] <= ev.depth[v][w[idx], u[idx]] + ev.margin]
+        ny = w[idx, None] + _NEIGHBOURS[None, :, 0]
+        nx = u[idx, None] + _NEIGHBOURS[None, :, 1]
+        on = lines[ny, nx]  # (samples, 9)
+        np.add.at(ink, owner[idx], 1.0)
+        np.add.at(off, owner[idx[~on.any(axis=1)]], 1.0)
+        r, c = np.nonzero(on)
+        hit_owner.append(owner[idx[r]])
+        hit_pix.append((ny[r, c] * W + nx[r, c]).astype(np.int64) + offset)
+        offset += lines.size
+    ho, hp = np.concatenate(hit_owner), np.concatenate(hit_pix)
+    order = np.lexsort((hp, ho))
+    ho, hp = ho[order], hp[order]
+    bounds = np.searchsorted(ho, np.arange(len(controls) + 1))
+    sets = [np.unique(hp[bounds[k]:bounds[k + 1]]) for k in range(len(controls))]
+    return sets, off, ink
+
+
+def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, min_gain: float,
+                   min_novelty: float = 0.5, off_weight: float = 0.5, taken: np.ndarray | None = None
+                   ) -> tuple[list[int], list[float]]:
+    """Greedy set cover: the stroke that newly explains the most line pixels (minus ``off_weight`` × its
+    off-line ink) first.
+
+    A stroke is taken while its gain is at least ``min_gain`` pixels and at least ``min_novelty`` of the
+    line pixels it explains are not explained yet (a stroke along one already chosen is a duplicate).
+    At most ``max_strokes``. ``taken``: pixel ids explained before any stroke is chosen. Lazy evaluation
+    (gains only shrink as strokes are chosen) keeps it fast.
+
+    Returns:
+        The chosen indices in order, and each one's gain in pixels.
+    """
+    import heapq
+
+    size = max((int(c.max()) + 1 for c in covers if len(c)), default=1)
+    done = np.zeros(size, bool)
+    if taken is not None and len(taken):
+        done[taken[taken < size]] = True
+    taken = done
+
+    def gain(k: int) -> tuple[float, float]:
+        new = float((~taken[covers[k]]).sum())
+        return new - off_weight * off[k], new / max(len(covers[k]), 1)
+
+    heap = [(-gain(k)[0], k) for k in range(len(covers))]
+    heapq.heapify(heap)
+    chosen, gains = [], []
+    while heap and len(chosen) < max_strokes:
+        neg, k = heapq.heappop(heap)
+        if -neg < min_gain:
+            break
+        g, novelty = gain(k)
+        if heap and g < -heap[0][0]:  # stale: re-queue with the fresh gain
+            heapq.heappush(heap, (-g, k))
+            continue
+        if g < min_gain:
+            break
+        if novelty < min_novelty:
+            continue  # mostly a duplicate; never better later
+        chosen.append(k)
+        gains.append(g)
+        taken[covers[k]] = True
+    return chosen, gains
+
+
+def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samples: int = 24,
+                       smooth: float = 0.7, lr_voxels: float = 0.05) -> np.ndarray:
+    """Pull cubics onto the evidence's ridges: maximise the mean (smoothed) evidence along each curve.
+
+    The evidence is one 3D field voting with all views at once, at the evidence resolution, so this polishes
+    the few-voxel error of the cubic fit without the working images' coarser pixels. Adam on the control
+    points, trilinear lookups; a small penalty on the control polygon's second differences keeps the curves
+    from kinking.
+    """
+    import torch
+
+    if len(controls) == 0 or steps <= 0:
+        return controls
+    S = ndimage.gaussian_filter(ev.score.astype(np.float32), smooth)
+    vol = torch.from_numpy(S)[None, None]  # (1, 1, X, Y, Z)
+    shape = torch.tensor(S.shape, dtype=torch.float32)
+    origin = torch.tensor(ev.grid.origin, dtype=torch.float32)
+    h = float(ev.grid.voxel)
+    c = torch.tensor((controls - ev.grid.origin) / h, dtype=torch.float32, requires_grad=True)  # voxel units
+    t = torch.linspace(0, 1, samples)[:, None]
+    basis = torch.cat([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], -1)
+    opt = torch.optim.Adam([c], lr=lr_voxels)
+    start = c.detach().clone()
+    for _ in range(steps):
+        pts = torch.einsum("tk,nkd->ntd", basis, c)  # (N, T, 3) voxel coordinates
+        # grid_sample wants (z, y, x) order in [-1, 1] for a (D, H, W) = (X, Y, Z) volume
+        g = (pts / (shape - 1) * 2 - 1).flip(-1)[None, None]
+        val = torch.nn.functional.grid_sample(vol, g, align_corners=True, padding_mode="zeros")[0, 0, 0]
+        second = c[:, :2] - 2 * c[:, 1:3] + c[:, 2:]
+        loss = -val.mean() + 1e-3 * second.pow(2).sum(-1).mean() + 1e-3 * (c - start).pow(2).sum(-1).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    del origin
+    return c.detach().numpy().astype(np.float64) * h + ev.grid.origin
+
+
+def snap_ends(controls: np.ndarray, radius: float) -> np.ndarray:
+    """Move stroke end points that lie within ``radius`` of each other onto their common mean (corners meet).
+
+    The inner control points move with their end point, so tangents keep their directions.
+    """
+    if len(controls) < 2:
+        return controls
+    out = controls.copy()
+    ends = np.concatenate([out[:, 0], out[:, 3]])
+    groups = cKDTree(ends).query_pairs(radius, output_type="ndarray")
+    parent = np.arange(len(ends))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in groups:
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[ra] = rb
+    roots = np.array([root(i) for i in range(len(ends))])
+    n = len(controls)
+    for r in np.unique(roots):
+        members = np.flatnonzero(roots == r)
+        if len(members) < 2:
+            continue
+        target = ends[members].mean(axis=0)
+        for m in members:
+            k, at = m % n, (0 if m < n else 3)
+            shift = target - out[k, at]
+            out[k, at] += shift
+            out[k, 1 if at == 0 else 2] += shift
+    return out
+
+
+@dataclass
+class Candidates:
+    """Candidate cubics and what each explains in the selection views (see :func:`find_candidates`)."""
+
+    controls: np.ndarray
+    covers: list[np.ndarray]
+    off: np.ndarray
+    total: int
+    """Line pixels over the selection views."""
+    views: list[int]
+    rim: np.ndarray
+    """Global ids of the masks' boundary pixels over the selection views."""
+    evidence: Evidence
+    ridge_points: int
+    polylines: int
+    seconds: dict[str, float]
+
+    def pixel_ids(self, view_pixels: list[np.ndarray]) -> np.ndarray:
+        """Global ids of the line pixels within 1.5 px of given pixels ``(P_v, 2)`` (x, y) per selection view."""
+        out, offset = [], 0
+        for v, px in zip(self.views, view_pixels):
+            lines = self.evidence.lines[v]
+            H, W = lines.shape
+            if len(px):
+                x = np.clip(np.floor(px[:, 0]).astype(int)[:, None] + _NEIGHBOURS[None, :, 1], 0, W - 1)
+                y = np.clip(np.floor(px[:, 1]).astype(int)[:, None] + _NEIGHBOURS[None, :, 0], 0, H - 1)
+                on = lines[y, x]
+                out.append((y[on] * W + x[on]).astype(np.int64) + offset)
+            offset += lines.size
+        return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
+
+
+def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
+                    tolerance_voxels: float = 2.0, max_views: int = 48,
+                    log: Callable[[str], None] = lambda m: None) -> Candidates:
+    """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
+
+    Args:
+        scene: images and masks at the evidence resolution (a voxel should project to about a pixel).
+        max_voxels: evidence grid voxels along the object's longest side.
+        threshold: minimum (smoothed) evidence of a ridge point.
+        min_length: polylines shorter than this share of the object's size (its hull box diagonal) are
+            dropped: in a sketch they read as ticks and dots.
+        tolerance_voxels: 3D fitting tolerance of the cubics.
+        max_views: views used to choose strokes (evenly spread).
+    """
+    clock = time.perf_counter()
+    seconds: dict[str, float] = {}
+    ev = edge_evidence(scene, max_voxels)
+    seconds["evidence"] = time.perf_counter() - clock
+    t = time.perf_counter()
+    h = ev.grid.voxel
+    # hysteresis, as in Canny: ridges are traced down to half the threshold, and a polyline is kept when
+    # some of it reaches the threshold
+    ridges = ridge_points(ev.score, ev.grid, 0.5 * threshold)
+    size = h * float(np.linalg.norm(ev.grid.shape))
+    strong = cKDTree(ridges.points[ridges.strength >= threshold]) if (ridges.strength >= threshold).any() else None
+    polys = [p for p in link_ridges(ridges, h) if np.linalg.norm(np.diff(p, axis=0), axis=1).sum() >= min_length * size
+             and strong is not None and np.isfinite(strong.query(p, distance_upper_bound=0.5 * h)[0]).any()]
+    pieces = fit_cubics_many(polys, tolerance_voxels * h) if polys else []
+    controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
+    seconds["curves"] = time.perf_counter() - t
+    t = time.perf_counter()
+    views = list(np.unique(np.linspace(0, len(ev.cameras) - 1, min(max_views, len(ev.cameras))).round().astype(int)))
+    total = int(sum(ev.lines[v].sum() for v in views))
+    covers, off, _ = stroke_coverage(controls, ev, views) if len(controls) else ([], np.zeros(0), None)
+    offsets = np.cumsum([0] + [ev.lines[v].size for v in views])
+    rim = np.concatenate([np.flatnonzero(m ^ ndimage.binary_erosion(m)) + o
+                          for m, o in zip((scene.masks[v] for v in views), offsets)])
+    seconds["coverage"] = time.perf_counter() - t
+    log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls)} candidate cubics "
+        f"({sum(seconds.values()):.1f} s)")
+    return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds)
+
+
+def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
+                  polish: bool = True, log: Callable[[str], None] = lambda m: None) -> Discovery:
+    """Choose among the candidates (greedy marginal coverage, see :func:`select_strokes`), polish the chosen
+    cubics on the evidence and snap their meeting ends (``polish``), and read their face normals off the hull.
+
+    Args:
+        min_gain: a stroke is chosen while its marginal gain (newly explained line pixels minus half its
+            off-line ink) is at least this share of all line pixels (over the selection views).
+        taken: line pixels already drawn (global ids, e.g. superquadric outlines): curves go elsewhere.
+    """
+    t = time.perf_counter()
+    ev = cand.evidence
+    h = ev.grid.voxel
+    if len(cand.controls):
+        chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken)
+    else:
+        chosen, gains = [], []
+    explained = np.unique(np.concatenate([cand.covers[k] for k in chosen])) if chosen else np.zeros(0, np.int64)
+    outline = float(np.isin(cand.rim, explained).mean()) if len(cand.rim) else 0.0
+    controls = cand.controls[chosen]
+    if polish and len(controls):
+        controls = snap_ends(refine_on_evidence(controls, ev), 2.0 * h)
+    normals = curve_normals(controls, ev.grid, ev.occupied, ev.cameras, ev.depth, ev.margin)
+    seconds = {**cand.seconds, "choice": time.perf_counter() - t}
+    coverage = len(explained) / max(cand.total, 1)
+    log(f"discovery: {len(controls)} of {len(cand.controls)} candidate cubics chosen, explaining {coverage:.0%} of "
+        f"the line pixels and {outline:.0%} of the outlines")
+    return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds)
+
+
+def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, threshold: float = 0.15,
+                    min_length: float = 0.03, tolerance_voxels: float = 2.0, min_gain: float = 0.0005,
+                    max_views: int = 48, log: Callable[[str], None] = lambda m: None) -> Discovery:
+    """:func:`find_candidates` then :func:`choose_curves` (see their arguments)."""
+    cand = find_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, max_views, log)
+    return choose_curves(cand, max_curves, min_gain, log=log)
+
+
+def outline_pixel_ids(cand: Candidates, sq, frame) -> np.ndarray:
+    """Line pixels (global ids over the selection views) that the superquadrics' visible outline draws."""
+    from ..exporters.drawing import DrawOptions, draw_many
+    from ..strokes.model import CurveSet, StrokeSet
+
+    cams = [cand.evidence.cameras[v] for v in cand.views]
+    drawings = draw_many(StrokeSet(frame, CurveSet(), sq), cams, DrawOptions(curves=False, hidden="hide", tolerance=0.5))
+    pixels = []
+    for d in drawings:
+        pts = [bezier_points(seg, np.linspace(0, 1, int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4))
+               for op in d.layer("silhouettes") for sp in op.subpaths for seg in sp]
+        pixels.append(np.concatenate(pts) if pts else np.zeros((0, 2)))
+    return cand.pixel_ids(pixels)
