@@ -13,8 +13,15 @@ from doodle.strokes.superquadric import quaternion_to_matrix
 from helpers import random_strokes
 
 
-def _assert_close(a, b, tol):
+def _assert_close(a, b, tol, normal_deg=0.01):
     assert np.abs(a.curves.control_points - b.curves.control_points).max(initial=0) <= tol
+    assert (a.curves.normals is None) == (b.curves.normals is None)
+    if a.curves.normals is not None:
+        na, nb = a.curves.normals, b.curves.normals
+        assert ((np.linalg.norm(na, axis=-1) < 1e-9) == (np.linalg.norm(nb, axis=-1) < 1e-9)).all()
+        cos = np.clip((na * nb).sum(-1), -1, 1)[np.linalg.norm(na, axis=-1) > 1e-9]
+        assert np.degrees(np.arccos(cos)).max(initial=0) <= normal_deg
+    assert (a.superquadrics.drawn == b.superquadrics.drawn).all()
     sa, sb = a.superquadrics, b.superquadrics
     assert np.abs(sa.translation - sb.translation).max(initial=0) <= tol
     assert np.abs(sa.scale - sb.scale).max(initial=0) <= tol
@@ -59,6 +66,9 @@ class TestJson:
             (lambda d: d["superquadrics"][0].update(shape=[0.05, 1.0]), "superquadrics[0].shape[0]"),
             (lambda d: d["superquadrics"][0].update(scale=[1, 0, 1]), "superquadrics[0].scale[1]"),
             (lambda d: d["scene"]["camera"].update(width=1.5), "scene.camera.width"),
+            (lambda d: d["curves"].update(normals=[[[[0, 0, 1]] * 2] * 2] * 2), "curves.normals"),
+            (lambda d: d["curves"].update(normals=[[[[0, 0, 2], [0, 0, 1]]] * 2] * 3), "curves.normals[0][0][0]"),
+            (lambda d: d["superquadrics"][1].update(outline="no"), "superquadrics[1].outline"),
         ],
     )
     def test_errors_name_the_field(self, tmp_path, mutate, field):
@@ -93,6 +103,15 @@ class TestBinary:
     def test_32_curves_8_superquadrics_fit_in_1kb(self):
         assert len(encode(random_strokes(n_curves=32, n_sq=8))) <= 1024
 
+    def test_face_normals_cost_6_bytes_a_curve(self):
+        s = random_strokes(n_curves=32, n_sq=8)
+        plain = len(encode(s))
+        s.curves.normals = np.tile([0.0, 0.0, 1.0], (32, 2, 2, 1))
+        assert len(encode(s)) - plain == 32 * 6 + 1  # 4 normals × 2 × 6 bits, and the flags byte
+
+    def test_plain_sets_stay_version_1(self):
+        assert encode(random_strokes(n_curves=3, n_sq=2))[4] == 1
+
     def test_round_trip_within_1e_3_radius(self):
         s = random_strokes(seed=3, radius=2.0)
         _assert_close(s, decode(encode(s)), 1e-3 * 2.0)
@@ -118,14 +137,22 @@ def stroke_sets(draw):
     s.frame.center = np.array([draw(finite), draw(finite), draw(finite)])
     s.curves.control_points = s.curves.control_points + s.frame.center
     s.superquadrics.translation = s.superquadrics.translation + s.frame.center
+    rng = np.random.default_rng(seed)
+    if n and draw(st.booleans()):
+        normals = rng.normal(size=(n, 2, 2, 3))
+        normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+        normals[rng.random((n, 2, 2)) < 0.2] = 0.0  # "unknown": never hides
+        s.curves.normals = normals
+    if m and draw(st.booleans()):
+        s.superquadrics.outline = rng.random(m) < 0.5
     return s
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(stroke_sets())
 def test_property_valid_files_round_trip(s):
-    _assert_close(s, loads(dumps(s)), 1e-6 * max(1.0, float(np.abs(s.frame.center).max()) + s.frame.radius))
-    _assert_close(s, decode(encode(s)), 1e-3 * s.frame.radius)
+    _assert_close(s, loads(dumps(s)), 1e-6 * max(1.0, float(np.abs(s.frame.center).max()) + s.frame.radius), 0.02)
+    _assert_close(s, decode(encode(s)), 1e-3 * s.frame.radius, 5.0)  # 6-bit octahedral normals: < 4°
 
 
 def _corruptions():

@@ -93,7 +93,7 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
     margin = opt.occlusion_margin * strokes.frame.radius if opt.hidden != "show" and len(sq) else None
     near = 1e-3 * strokes.frame.radius
     paths: list[list[PathOp]] = [[] for _ in cameras]
-    if opt.silhouettes and len(sq):
+    if opt.silhouettes and sq.drawn.any():
         for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near)):
             mine.extend(ops)
     if opt.curves and len(strokes.curves):
@@ -106,8 +106,9 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
 def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions, margin: float | None,
                       near: float) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) runs of the union's contour as cubic paths."""
+    drawn = sq.drawn  # occluder-only superquadrics hide things but draw no contour
     polys = [(v, i, p, n) for v, camera in enumerate(cameras)
-             for i, p, n in contour_polylines(sq, camera, *opt.silhouette_grid)]
+             for i, p, n in contour_polylines(sq, camera, *opt.silhouette_grid) if drawn[i]]
     out: list[list[PathOp]] = [[] for _ in cameras]
     if not polys:
         return out

@@ -62,13 +62,12 @@ class Evidence:
     lines: list[np.ndarray]
     depth: list[np.ndarray]
     margin: float
-    tangent: np.ndarray | None = None
-    """Per voxel, the 3D direction the views' lines agree on (unit, ``(X, Y, Z, 3)``)."""
 
 
-def thin_parts(mask: np.ndarray, thin: float = 0.06) -> tuple[np.ndarray, np.ndarray]:
+def thin_parts(mask: np.ndarray, thin: float = 0.06, inside: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(axes, region)`` of the mask's parts narrower than ``thin`` × its box diagonal: the region (what an
-    opening with a disc of that width removes, computed with distance transforms) and its skeleton."""
+    opening with a disc of that width removes, computed with distance transforms; ``inside`` is the mask's
+    own distance transform when already at hand) and its skeleton."""
     from skimage.morphology import skeletonize
 
     ys, xs = np.nonzero(mask)
@@ -78,11 +77,34 @@ def thin_parts(mask: np.ndarray, thin: float = 0.06) -> tuple[np.ndarray, np.nda
     r = int(round(0.5 * thin * diag))
     if r < 1:
         return np.zeros_like(mask), np.zeros_like(mask)
-    core = ndimage.distance_transform_edt(mask) > r
+    core = (ndimage.distance_transform_edt(mask) if inside is None else inside) > r
     opened = ndimage.distance_transform_edt(~core) <= r + 1 if core.any() else core
     region = mask & ~opened
     region = ndimage.binary_opening(region)  # no single-pixel slivers along thick parts' borders
     return (skeletonize(region) if region.any() else region), region
+
+
+def _gradients(image: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grey image in [0, 1] and the Sobel gradients ``(gx, gy)`` of its Gaussian-smoothed version."""
+    gray = image.astype(np.float32).mean(axis=2) / 255.0
+    smooth = ndimage.gaussian_filter(gray, sigma)
+    return gray, ndimage.sobel(smooth, 1), ndimage.sobel(smooth, 0)
+
+
+def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin) -> np.ndarray:
+    hi = high
+    if mask is not None and density < 1:
+        core = ndimage.binary_erosion(mask, iterations=2)
+        if core.sum() > 100:
+            hi = max(high, float(np.quantile(np.hypot(gx, gy)[core], 1.0 - density)))
+    edges = feature.canny(gray, sigma=sigma, low_threshold=max(low, 0.5 * hi), high_threshold=hi)
+    if mask is None:
+        return edges
+    boundary = mask ^ ndimage.binary_erosion(mask)
+    lines = boundary | (edges & ndimage.binary_dilation(mask, iterations=2))
+    if thin > 0:
+        lines |= thin_parts(mask, thin, inside)[0]
+    return lines
 
 
 def object_lines(image: np.ndarray, mask: np.ndarray | None, sigma: float = 1.5, low: float = 0.04,
@@ -95,26 +117,47 @@ def object_lines(image: np.ndarray, mask: np.ndarray | None, sigma: float = 1.5,
     so shading noise stays out however little of the frame the object fills, and raised until at most
     ``density`` of the object's pixels seed an edge, so busy surfaces (studs, print) keep only their
     strongest lines. The low threshold is half the high one. A part narrower than ``thin`` × the object's
-    size (a cable, a leg, a handle) is drawn by its axis, which every view agrees on, instead of its two
-    rims, which move with the view (:func:`thin_parts`).
+    size (a cable, a leg, a handle) adds its axis, which every view agrees on, while its two rims move with
+    the view (:func:`thin_parts`).
     """
-    gray = image.astype(np.float32).mean(axis=2) / 255.0
-    hi = high
-    if mask is not None and density < 1:
-        inside = ndimage.binary_erosion(mask, iterations=2)
-        if inside.sum() > 100:
-            smooth = ndimage.gaussian_filter(gray, sigma)
-            mag = np.hypot(ndimage.sobel(smooth, 0), ndimage.sobel(smooth, 1))
-            hi = max(high, float(np.quantile(mag[inside], 1.0 - density)))
-    edges = feature.canny(gray, sigma=sigma, low_threshold=max(low, 0.5 * hi), high_threshold=hi)
-    if mask is None:
-        return edges
-    boundary = mask ^ ndimage.binary_erosion(mask)
-    lines = boundary | (edges & ndimage.binary_dilation(mask, iterations=2))
-    if thin > 0:
-        axes, region = thin_parts(mask, thin)
-        lines = lines | axes
-    return lines
+    gray, gx, gy = _gradients(image, sigma)
+    return _lines(gray, gx, gy, mask, None, sigma, low, high, density, thin)
+
+
+@dataclass
+class ViewMaps:
+    """Per-view inputs of the vote: ``lines`` (bool), ``response`` (line closeness in [0, 1]),
+    ``directions`` ``(H, W, 2)`` of the nearest line, ``sdf`` signed distance to the mask boundary (px,
+    positive inside, grown by the carving slack)."""
+
+    lines: np.ndarray
+    response: np.ndarray
+    directions: np.ndarray
+    sdf: np.ndarray
+
+
+def view_maps(image: np.ndarray, mask: np.ndarray, sigma: float = 1.5, sigma_px: float = 1.0, thin: float = 0.06,
+              slack_px: float = 1.0) -> ViewMaps:
+    """Everything the vote needs from one view, sharing the distance transforms and the smoothed gradients.
+
+    The response of a pixel is ``exp(−d² / 2σ²)`` of its distance ``d`` to the nearest line; its direction is
+    that line's (across the image gradient there, or the mask's gradient on the mask boundary, where the
+    object may match the background's brightness).
+    """
+    inside = ndimage.distance_transform_edt(mask)
+    outside = ndimage.distance_transform_edt(~mask)
+    sdf = (np.where(mask, inside, -outside) + slack_px).astype(np.float32)
+    gray, gx, gy = _gradients(image, sigma)
+    lines = _lines(gray, gx, gy, mask, inside, sigma, 0.04, 0.08, 0.08, thin)
+    m = ndimage.gaussian_filter(mask.astype(np.float32), sigma)
+    rim = mask ^ ndimage.binary_erosion(mask)
+    gx = np.where(rim, ndimage.sobel(m, 1), gx)
+    gy = np.where(rim, ndimage.sobel(m, 0), gy)
+    norm = np.maximum(np.hypot(gx, gy), 1e-12)
+    dist, (iy, ix) = ndimage.distance_transform_edt(~lines, return_indices=True)
+    directions = np.stack([-gy / norm, gx / norm], -1).astype(np.float32)[iy, ix]
+    response = np.exp(-dist**2 / (2 * sigma_px**2)).astype(np.float32)
+    return ViewMaps(lines, response, directions, sdf)
 
 
 def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -126,16 +169,6 @@ def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     u = np.floor(pc[:, 0] / zs * np.float32(cam.fx) + np.float32(cam.cx)).astype(np.int32)
     v = np.floor(pc[:, 1] / zs * np.float32(cam.fy) + np.float32(cam.cy)).astype(np.int32)
     return u, v, z
-
-
-def _signed_distances(masks: list[np.ndarray], slack_px: float) -> list[np.ndarray]:
-    """Per view, the signed distance (px) to the mask boundary, positive inside, grown by ``slack_px``."""
-    out = []
-    for m in masks:
-        inside = ndimage.distance_transform_edt(m)
-        outside = ndimage.distance_transform_edt(~m)
-        out.append((np.where(m, inside, -outside) + slack_px).astype(np.float32))
-    return out
 
 
 def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray],
@@ -163,16 +196,21 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
 
 
 def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_seen_frac: float = 0.3,
-               levels: int = 3) -> tuple[VoxelGrid, np.ndarray]:
+               levels: int = 3, sdf: list[np.ndarray] | None = None) -> tuple[VoxelGrid, np.ndarray]:
     """Visual hull on a grid fitted to the object: ``(grid, occupied bool (X, Y, Z))``.
 
     A 48³ pass over the bounding sphere finds the object's box; the fine grid covers that box with
     ``max_voxels`` voxels along its longest side and is carved coarse to fine (``levels`` halvings).
+    ``sdf``: the masks' signed distances (see :class:`ViewMaps`), when already computed.
     """
     if scene.masks is None:
         raise ValueError("the scene has no masks")
     cams = scene.cameras
-    sdf = _signed_distances(scene.masks, slack_px)
+    if sdf is None:
+        sdf = []
+        for m in scene.masks:
+            inside, outside = ndimage.distance_transform_edt(m), ndimage.distance_transform_edt(~m)
+            sdf.append((np.where(m, inside, -outside) + slack_px).astype(np.float32))
     min_seen = max(2, int(min_seen_frac * len(cams)))
     f = scene.frame
     r = 1.15 * f.radius
@@ -230,28 +268,42 @@ def depth_maps(grid: VoxelGrid, occupied: np.ndarray, cameras: list[Camera]) -> 
     return out
 
 
-def line_directions(image: np.ndarray, mask: np.ndarray | None, lines: np.ndarray, sigma: float = 1.5
-                    ) -> np.ndarray:
-    """Unit image directions ``(H, W, 2)`` (x, y) of the line nearest to every pixel.
+def _vote(pts: np.ndarray, cams: list[Camera], response: list[np.ndarray], directions: list[np.ndarray],
+          depth: list[np.ndarray], margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Consistency score and number of views that see them, for points ``(P, 3)`` (see the module doc)."""
+    iu = np.triu_indices(3)
+    M = np.zeros((len(pts), 6), np.float32)  # Σ w n nᵀ (upper triangle)
+    total = np.zeros(len(pts), np.float32)
+    count = np.zeros(len(pts), np.int16)
+    for cam, resp, dirs, zb in zip(cams, response, directions, depth):
+        u, v, z = _project(cam, pts)
+        ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
+        idx = np.flatnonzero(ok)
+        idx = idx[z[idx] <= zb[v[idx], u[idx]] + margin]
+        count[idx] += 1
+        w = resp[v[idx], u[idx]]
+        keep = w > 0.05  # far from every line: votes 0 either way
+        idx, w = idx[keep], w[keep]
+        # the plane through the eye that holds the image line: normal = ray × line direction
+        d = dirs[v[idx], u[idx]]
+        ray = np.stack([(u[idx] + 0.5 - cam.cx) / cam.fx, (v[idx] + 0.5 - cam.cy) / cam.fy,
+                        np.ones(len(idx))], -1).astype(np.float32)
+        along = np.stack([d[:, 0] / cam.fx, d[:, 1] / cam.fy, np.zeros(len(idx))], -1).astype(np.float32)
+        n = np.cross(ray, along) @ cam.R.astype(np.float32)  # camera → world (row form of Rᵀ n)
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        M[idx] += w[:, None] * (n[:, iu[0]] * n[:, iu[1]])
+        total[idx] += w
+    full = np.zeros((len(pts), 3, 3), np.float32)
+    full[:, iu[0], iu[1]] = M
+    full[:, iu[1], iu[0]] = M
+    # A 3D line lies in every view's plane: their normals leave one direction (the line's) free, so the
+    # smallest eigenvalue stays 0; clutter in all directions raises it to a third of the total.
+    smallest = np.linalg.eigvalsh(full)[:, 0]
+    return np.maximum(total - 3.0 * smallest, 0.0) / (count + 1.0), count
 
-    A line runs across its gradient: the gradient of the smoothed image, or of the smoothed mask on the
-    mask boundary (where the object may match the background's brightness).
-    """
-    gray = ndimage.gaussian_filter(image.astype(np.float32).mean(axis=2) / 255.0, sigma)
-    gx, gy = ndimage.sobel(gray, 1), ndimage.sobel(gray, 0)
-    if mask is not None:
-        m = ndimage.gaussian_filter(mask.astype(np.float32), sigma)
-        mx, my = ndimage.sobel(m, 1), ndimage.sobel(m, 0)
-        rim = mask ^ ndimage.binary_erosion(mask)
-        gx, gy = np.where(rim, mx, gx), np.where(rim, my, gy)
-    norm = np.maximum(np.hypot(gx, gy), 1e-12)
-    direction = np.stack([-gy / norm, gx / norm], -1).astype(np.float32)
-    _, (iy, ix) = ndimage.distance_transform_edt(~lines, return_indices=True)
-    return direction[iy, ix]
 
-
-def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 8, margin_voxels: float = 6.0,
-                  sigma_px: float = 1.0, grow: int = 2, thin: float = 0.06, chunk: int = 1 << 17) -> Evidence:
+def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_voxels: float = 6.0,
+                  sigma_px: float = 1.0, grow: int = 4, thin: float = 0.06, chunk: int = 1 << 16) -> Evidence:
     """Vote for 3D edges on a grid around the visual hull (see the module docstring).
 
     Args:
@@ -261,54 +313,35 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 8, margin_vox
         grow: … or at most this many outside it.
         margin_voxels: a voxel counts as visible when at most this far behind the hull's depth map.
         sigma_px: width of the line response.
+
+    The per-view maps and the vote run in threads (numpy and scipy release the GIL in them): no worker
+    processes, nothing to fork.
     """
-    grid, occupied = carve_hull(scene, max_voxels)
-    cams = scene.cameras
-    lines = [object_lines(img, m, thin=thin) for img, m in zip(scene.images, scene.masks)]
-    response = [np.exp(-ndimage.distance_transform_edt(~lm) ** 2 / (2 * sigma_px**2)).astype(np.float32)
-                for lm in lines]
-    directions = [line_directions(img, m, lm) for img, m, lm in zip(scene.images, scene.masks, lines)]
-    depth = depth_maps(grid, occupied, cams)
-    inner = ndimage.binary_erosion(occupied, iterations=band) if band > 0 else np.zeros_like(occupied)
-    # a voxel or two outside the hull too: poses a pixel off carve the hull a little too small
-    cand = np.argwhere(ndimage.binary_dilation(occupied, iterations=grow) & ~inner)
-    margin = margin_voxels * grid.voxel
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..exporters.workers import cpu_count
+
+    if scene.masks is None:
+        raise ValueError("the scene has no masks")
+    with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:
+        maps = list(pool.map(lambda im: view_maps(im[0], im[1], sigma_px=sigma_px, thin=thin),
+                             zip(scene.images, scene.masks)))
+        grid, occupied = carve_hull(scene, max_voxels, sdf=[vm.sdf for vm in maps])
+        cams = scene.cameras
+        lines = [vm.lines for vm in maps]
+        response = [vm.response for vm in maps]
+        directions = [vm.directions for vm in maps]
+        del maps
+        depth = depth_maps(grid, occupied, cams)
+        inner = ndimage.binary_erosion(occupied, iterations=band) if band > 0 else np.zeros_like(occupied)
+        # a voxel or two outside the hull too: poses a pixel off carve the hull a little too small
+        cand = np.argwhere(ndimage.binary_dilation(occupied, iterations=grow) & ~inner)
+        margin = margin_voxels * grid.voxel
+        parts = list(pool.map(lambda s: _vote(grid.centres(cand[s:s + chunk]).astype(np.float32), cams, response,
+                                              directions, depth, margin), range(0, len(cand), chunk)))
     score = np.zeros(occupied.shape, np.float32)
     seen = np.zeros(occupied.shape, np.int16)
-    tangent = np.zeros(occupied.shape + (3,), np.float32)
-    iu = np.triu_indices(3)
-    for s in range(0, len(cand), chunk):
-        ijk = cand[s:s + chunk]
-        pts = grid.centres(ijk).astype(np.float32)
-        M = np.zeros((len(pts), 6), np.float32)  # Σ w n nᵀ (upper triangle)
-        total = np.zeros(len(pts), np.float32)
-        count = np.zeros(len(pts), np.int16)
-        for cam, resp, dirs, zb in zip(cams, response, directions, depth):
-            u, v, z = _project(cam, pts)
-            ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
-            idx = np.flatnonzero(ok)
-            idx = idx[z[idx] <= zb[v[idx], u[idx]] + margin]
-            count[idx] += 1
-            w = resp[v[idx], u[idx]]
-            keep = w > 0.05  # far from every line: votes 0 either way
-            idx, w = idx[keep], w[keep]
-            # the plane through the eye that holds the image line: normal = ray × line direction
-            d = dirs[v[idx], u[idx]]
-            ray = np.stack([(u[idx] + 0.5 - cam.cx) / cam.fx, (v[idx] + 0.5 - cam.cy) / cam.fy,
-                            np.ones(len(idx))], -1).astype(np.float32)
-            along = np.stack([d[:, 0] / cam.fx, d[:, 1] / cam.fy, np.zeros(len(idx))], -1).astype(np.float32)
-            n = np.cross(ray, along) @ cam.R.astype(np.float32)  # camera → world (row form of Rᵀ n)
-            n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-            M[idx] += w[:, None] * (n[:, iu[0]] * n[:, iu[1]])
-            total[idx] += w
-        full = np.zeros((len(pts), 3, 3), np.float32)
-        full[:, iu[0], iu[1]] = M
-        full[:, iu[1], iu[0]] = M
-        lam, vec = np.linalg.eigh(full)
-        # A 3D line lies in every view's plane: their normals leave one direction (the line's) free, so
-        # the smallest eigenvalue stays 0; clutter in all directions raises it to a third of the total.
-        consistent = np.maximum(total - 3.0 * lam[:, 0], 0.0)
-        score[tuple(ijk.T)] = consistent / (count + 1.0)
-        seen[tuple(ijk.T)] = count
-        tangent[tuple(ijk.T)] = vec[:, :, 0]
-    return Evidence(grid, score, occupied, seen, cams, lines, depth, margin, tangent)
+    if parts:
+        score[tuple(cand.T)] = np.concatenate([p[0] for p in parts])
+        seen[tuple(cand.T)] = np.concatenate([p[1] for p in parts])
+    return Evidence(grid, score, occupied, seen, cams, lines, depth, margin)

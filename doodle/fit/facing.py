@@ -36,7 +36,16 @@ def _two_faces(normals: np.ndarray, same_deg: float = 25.0, spread: float = 0.35
     if seeds[0] @ seeds[1] > np.cos(np.radians(same_deg)):
         m = mean / np.linalg.norm(mean)
         return np.stack([m, m])
-    return seeds
+    # the smoothed hull blends the faces near the crease: take each group's quarter farthest from the other
+    split = seeds[0] - seeds[1]
+    along = normals @ split
+    faces = []
+    for k, sign in ((0, 1.0), (1, -1.0)):
+        mine = along[label == k] * sign
+        pure = normals[label == k][mine >= np.quantile(mine, 0.75)]
+        m = pure.mean(axis=0)
+        faces.append(m / max(np.linalg.norm(m), 1e-12))
+    return np.stack(faces)
 
 
 def curve_normals(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, cameras=None, depth=None,

@@ -404,15 +404,26 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             })
         return save
 
-    def finish_discovery(sq: SuperquadricSet) -> None:
+    def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
         """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
         nonlocal start, normals, curve_params
         from .discover import choose_curves, outline_pixel_ids
 
-        taken = outline_pixel_ids(candidates, sq, frame) if len(sq) else None
+        taken = outline_pixel_ids(candidates, sq, frame) if sq.drawn.any() else None
         found = choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, log=say)
         start, normals = found.control_points, found.normals
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
+        if len(sq) and not sq.drawn.all():
+            from .outlines import useful_occluders
+
+            ev = candidates.evidence
+            kept = useful_occluders(sq, CurveSet(start, cfg.width_px, normals), frame,
+                                    [ev.cameras[v] for v in candidates.views],
+                                    [ev.depth[v] for v in candidates.views], ev.margin)
+            if len(kept) < len(sq):
+                say(f"superquadrics: {len(sq) - len(kept)} occluder(s) would hide more visible lines than hidden ones; dropped")
+            return kept
+        return sq
 
     if discovering and candidates is not None and not wants_sq:
         finish_discovery(SuperquadricSet())
@@ -445,10 +456,11 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             from .outlines import keep_outlines
 
             final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame, work.cameras,
-                                     [object_lines(i, m) for i, m in zip(work.images, work.masks)], log=say)
+                                     [object_lines(i, m) for i, m in zip(work.images, work.masks)], work.masks,
+                                     log=say)
         if discovering and candidates is not None and not interrupted:
-            finish_discovery(final_sq)
-        say(f"superquadrics: {len(final_sq)} (training silhouette IoU "
+            final_sq = finish_discovery(final_sq)
+        say(f"superquadrics: {len(final_sq)}, {int(final_sq.drawn.sum())} drawn (training silhouette IoU "
             f"{silhouette_iou(final_sq, sq_scene.cameras, sq_scene.masks):.3f})")
         stage = "curves"
         checkpointer("curves")(StageState())

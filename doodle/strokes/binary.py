@@ -6,14 +6,15 @@ Layout (little-endian)::
     frame: up 3×f32, center 3×f64, radius f64, fov/distance/elevation/azimuth 4×f32, width u16, height u16,
            width_px f32
     quantisation: origin 3×f64, position step f64, scale step f64, position bits u8, scale bits u8
+    version 2 only: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow)
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
-                rotations (M × (2 + 3·14) bits, "smallest three" quaternion components)
-                version 2 only: curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code
-                for a zero normal)
+                rotations (M × (2 + 3·14) bits, "smallest three" quaternion components),
+                [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
+                normal)], [outline flags (M × 1 bit)]
     trailer: u16 length + zlib(JSON of provenance and extras)
 
-Version 1 is written when the curves carry no normals (older readers read it); version 2 when they do.
+Version 1 is written when there is neither (older readers read it); version 2 otherwise.
 
 Positions are quantised on a grid whose step keeps the round-trip error ≤ 2.5e-4 of the scene radius
 (the bits per coordinate follow from the extent: 13 bits for a typical object). 32 curves and
@@ -126,6 +127,10 @@ def encode(strokes: StrokeSet) -> bytes:
     normals = strokes.curves.normals if n else None
     if normals is not None:
         bits.append(_pack(_octahedral(normals.reshape(-1, 3)), NORMAL_BITS))
+    outline = sq.drawn if m and not sq.drawn.all() else None
+    if outline is not None:
+        bits.append(outline.astype(np.uint8))
+    flags = (normals is not None) | ((outline is not None) << 1)
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     meta = {"provenance": strokes.provenance, "extra": strokes.extra}
@@ -133,11 +138,12 @@ def encode(strokes: StrokeSet) -> bytes:
     if len(trailer) > 65535:
         raise StrokeFileError("provenance too large for the binary format")
     return b"".join([
-        _HEAD.pack(MAGIC, 2 if normals is not None else 1, n, m),
+        _HEAD.pack(MAGIC, 2 if flags else 1, n, m),
         _FRAME.pack(*map(float, f.up), *map(float, f.center), float(f.radius), float(cam.fov_deg), float(cam.distance),
                     float(cam.elevation_deg), float(cam.azimuth_deg), int(cam.width), int(cam.height),
                     float(strokes.curves.width_px)),
         _QUANT.pack(*map(float, origin), pos_step, scale_step, pos_bits, scale_bits),
+        bytes([flags]) if flags else b"",
         stream,
         struct.pack("<H", len(trailer)),
         trailer,
@@ -168,9 +174,14 @@ def _decode(data: bytes) -> StrokeSet:
     if not all(math.isfinite(v) for v in (*origin, pos_step, scale_step)):
         raise StrokeFileError("quantisation parameters are not finite")
     n_bits = (n * 12 + m * 3) * pos_bits + m * 3 * scale_bits + m * 2 * SHAPE_BITS + m * (2 + 3 * ROT_BITS)
-    if version == 2:
-        n_bits += n * 4 * 2 * NORMAL_BITS
     start = qo + _QUANT.size
+    flags = 0
+    if version == 2:
+        flags = data[start]
+        start += 1
+        if flags & ~3:
+            raise StrokeFileError(f"unknown flags {flags:#x}")
+        n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0)
     stream_len = (n_bits + 7) // 8
     if len(data) < start + stream_len + 2:
         raise StrokeFileError(f"binary stroke data truncated ({len(data)} bytes, need {start + stream_len + 2})")
@@ -204,8 +215,9 @@ def _decode(data: bytes) -> StrokeSet:
         rots[i] = np.insert(rest, largest, w)
         rots[i] /= np.linalg.norm(rots[i])
     curves_doc: dict = {"control_points": cp.tolist(), "width_px": fr[13]}
-    if version == 2:
+    if flags & 1:
         curves_doc["normals"] = _from_octahedral(take(n * 4 * 2, NORMAL_BITS).reshape(-1, 2)).reshape(n, 2, 2, 3).tolist()
+    drawn = take(m, 1).astype(bool) if flags & 2 else np.ones(m, bool)
     extra = meta.get("extra", {}) if isinstance(meta.get("extra", {}), dict) else {}
     doc = {
         "format": FORMAT, "version": VERSION,
@@ -214,7 +226,8 @@ def _decode(data: bytes) -> StrokeSet:
                              "width": fr[11], "height": fr[12]}},
         "curves": curves_doc,
         "superquadrics": [{"scale": scale[i].tolist(), "shape": shape[i].tolist(), "rotation": rots[i].tolist(),
-                           "translation": trans[i].tolist()} for i in range(m)],
+                           "translation": trans[i].tolist(), **({} if drawn[i] else {"outline": False})}
+                          for i in range(m)],
         "provenance": meta.get("provenance", {}),
     }
     strokes = stroke_set_from_dict(doc)

@@ -156,6 +156,12 @@ def _parse(data: Any) -> StrokeSet:
             raise _Invalid(f"{name}.rotation: quaternion norm {norm:.6g} is not 1 (tolerance {_QUAT_TOL})")
         sq.rotation[i] = q / norm
         sq.translation[i] = _vector(_required(item, "translation", f"{name}."), 3, f"{name}.translation")
+        if "outline" in item:
+            if not isinstance(item["outline"], bool):
+                raise _Invalid(f"{name}.outline: expected true or false")
+            if sq.outline is None:
+                sq.outline = np.ones(m, bool)
+            sq.outline[i] = item["outline"]
 
     provenance = top.get("provenance", {})
     if not isinstance(provenance, dict):
@@ -221,7 +227,7 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
                    **extra.get("curves", {})},
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
-             "translation": _floats(sq.translation[i])}
+             "translation": _floats(sq.translation[i]), **({} if sq.drawn[i] else {"outline": False})}
             for i in range(len(sq))
         ],
         "provenance": strokes.provenance,

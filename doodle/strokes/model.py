@@ -62,20 +62,32 @@ class CurveSet:
 
 @dataclass
 class SuperquadricSet:
-    """View-dependent strokes: ``M`` superquadrics whose union's contour is drawn."""
+    """View-dependent strokes: ``M`` superquadrics whose union's contour is drawn.
+
+    ``outline`` ``(M,)`` (optional, default all true): whether each one's contour is drawn. One that is not
+    still hides what lies behind it: an occluder for hidden-line removal, where curves already draw the
+    outline better than its rounded silhouette would.
+    """
 
     scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     shape: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     rotation: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     """Unit quaternions ``(w, x, y, z)``."""
     translation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    outline: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.scale.shape[0])
 
+    @property
+    def drawn(self) -> np.ndarray:
+        """``(M,)`` bool: whose contour is drawn."""
+        return np.ones(len(self), bool) if self.outline is None else np.asarray(self.outline, bool)
+
     def subset(self, keep: np.ndarray) -> "SuperquadricSet":
         """The superquadrics selected by a boolean mask or index array."""
-        return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep])
+        return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep],
+                               None if self.outline is None else np.asarray(self.outline, bool)[keep])
 
 
 @dataclass

@@ -1,0 +1,215 @@
+"""Stroke discovery: edge evidence, ridge tracing, stroke choice, joins, face normals, thin parts, roles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from doodle.exporters import DrawOptions, draw
+from doodle.exporters.drawing import back_facing
+from doodle.fit.discover import choose_curves, find_candidates, select_strokes, snap_ends
+from doodle.fit.evidence import VoxelGrid, carve_hull, edge_evidence, object_lines, thin_parts
+from doodle.fit.facing import curve_normals
+from doodle.fit.ridges import RidgePoints, _bridge, link_ridges, split_at_corners
+from doodle.fit.targets import working_scene
+from doodle.samples import load_ground_truth
+from doodle.scenes import load_scene
+from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
+
+from helpers_geometry import edge_scores, sample_segments
+
+
+@pytest.fixture(scope="module")
+def chair(chair_dir):
+    scene = load_scene(chair_dir)
+    return scene, load_ground_truth(chair_dir)
+
+
+class TestLines:
+    def test_shading_noise_is_not_a_line_but_a_step_is(self):
+        rng = np.random.default_rng(0)
+        img = np.full((96, 96, 3), 128.0) + rng.normal(0, 2.0, (96, 96, 1))  # rendering noise
+        img[:, 48:] += 40  # a crease between two faces
+        mask = np.zeros((96, 96), bool)
+        mask[10:86, 10:86] = True
+        lines = object_lines(np.clip(img, 0, 255).astype(np.uint8), mask)
+        inside = lines[14:82, 14:82]
+        assert inside[:, 32:36].any(axis=1).mean() > 0.9  # the step, all along
+        assert inside[:, :28].sum() + inside[:, 40:].sum() == 0  # no noise edges on the faces
+
+    def test_thin_parts_give_their_axis(self):
+        mask = np.zeros((120, 120), bool)
+        yy, xx = np.mgrid[:120, :120]
+        mask |= (yy - 40) ** 2 + (xx - 40) ** 2 < 30**2  # a thick disc
+        mask[36:40, 60:115] = True  # a 4-px wire leaving it
+        axes, region = thin_parts(mask, thin=0.06)
+        assert region[36:40, 80:110].all() and not region[30:50, 20:50].any()
+        ys, xs = np.nonzero(axes)
+        assert len(ys) > 30 and np.all((ys >= 36) & (ys < 40)) and xs.min() >= 60
+
+
+class TestEvidence:
+    def test_hull_holds_the_chair(self, chair):
+        scene, gt = chair
+        grid, occupied = carve_hull(scene, 64)
+        pts = grid.centres(np.argwhere(occupied))
+        inside = np.zeros(len(pts), bool)
+        for p in gt["primitives"]:
+            inside |= p.contains(pts, margin=1.5 * grid.voxel)
+        assert inside.mean() > 0.6  # a hull from 12 views over-approximates, but hugs the chair
+        edge_pts, _ = sample_segments(gt["feature_edges"], grid.voxel)
+        ijk = np.clip(grid.index(edge_pts), 0, np.array(grid.shape) - 1)
+        from scipy import ndimage
+
+        near = ndimage.binary_dilation(occupied, iterations=2)[tuple(ijk.T)]
+        assert near.mean() > 0.95  # every feature edge lies on (or next to) the hull
+
+    def test_votes_peak_on_feature_edges(self, chair):
+        scene, gt = chair
+        ev = edge_evidence(scene, 96)
+        edge_pts, _ = sample_segments(gt["feature_edges"], ev.grid.voxel)
+        ijk = ev.grid.index(edge_pts)
+        ok = np.all((ijk >= 0) & (ijk < np.array(ev.grid.shape)), axis=1)
+        from scipy import ndimage
+
+        peak = ndimage.maximum_filter(ev.score, size=3)
+        on_edges = peak[tuple(ijk[ok].T)]
+        voted = ev.score[ev.score > 0]
+        assert np.median(on_edges) > 2.5 * np.median(voted), (np.median(on_edges), np.median(voted))
+
+
+def _ridge_line(n: int, duplicate: float, rng) -> RidgePoints:
+    t = np.linspace(0, 1, n)
+    pts = np.stack([t, 0.2 * np.sin(3 * t), 0 * t], 1)
+    tan = np.gradient(pts, axis=0)
+    tan /= np.linalg.norm(tan, axis=1, keepdims=True)
+    # the parallel duplicates a ridge leaves in neighbouring voxels
+    dup = pts + rng.normal(0, duplicate, pts.shape)
+    return RidgePoints(np.vstack([pts, dup]), np.vstack([tan, tan]), np.r_[np.ones(n), 0.8 * np.ones(n)])
+
+
+class TestRidges:
+    def test_one_ridge_with_duplicates_is_one_polyline(self):
+        rp = _ridge_line(200, 0.002, np.random.default_rng(1))
+        polys = link_ridges(rp, voxel=0.005, corner_deg=60)
+        lengths = sorted(np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p in polys)
+        assert lengths[-1] > 0.9 * 1.1  # the whole wavy line (length ≈ 1.16)
+        assert sum(lengths[:-1]) < 0.05
+
+    def test_corner_splits(self):
+        a = np.stack([np.linspace(0, 1, 50), np.zeros(50), np.zeros(50)], 1)
+        b = np.stack([np.ones(50), np.linspace(0, 1, 50), np.zeros(50)], 1)
+        pieces = split_at_corners(np.vstack([a, b[1:]]), 40, 0.06)
+        assert len(pieces) == 2 and np.allclose(pieces[0][-1], [1, 0, 0]) and np.allclose(pieces[1][0], [1, 0, 0])
+
+    def test_bridge_joins_facing_ends_only(self):
+        x = np.linspace(0, 1, 20)[:, None]
+        left = np.hstack([x, 0 * x, 0 * x])
+        right = left + [1.05, 0, 0]
+        across = np.hstack([0 * x + 1.025, x + 0.05, 0 * x])  # perpendicular, its end 0.05 from the gap
+        out = _bridge([left, right, across], max_gap=0.1, max_angle_deg=35)
+        assert len(out) == 2 and max(len(p) for p in out) == 40
+
+
+class TestChoice:
+    def test_duplicates_are_never_both_chosen_and_the_count_stops(self):
+        a = np.arange(0, 100)
+        covers = [a, a.copy(), np.arange(100, 160), np.arange(160, 162)]
+        chosen, gains = select_strokes(covers, np.zeros(4), max_strokes=10, min_gain=5)
+        assert sorted(chosen) in ([0, 2], [1, 2]) and gains == sorted(gains, reverse=True)
+
+    def test_taken_pixels_count_as_drawn(self):
+        covers = [np.arange(0, 100), np.arange(100, 150)]
+        chosen, _ = select_strokes(covers, np.zeros(2), 10, 5, taken=np.arange(0, 90))
+        assert chosen == [1]
+
+    def test_ink_off_the_lines_costs(self):
+        covers = [np.arange(0, 40), np.arange(40, 100)]
+        chosen, _ = select_strokes(covers, np.array([0.0, 200.0]), 10, 5)
+        assert chosen == [0]
+
+    def test_meeting_ends_snap_together(self):
+        c = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]],
+                      [[3.05, 0, 0], [3.05, 1, 0], [3.05, 2, 0], [3.05, 3, 0]]], float)
+        s = snap_ends(c, 0.1)
+        assert np.allclose(s[0, 3], s[1, 0]) and np.allclose(s[0, 3], [3.025, 0, 0])
+        assert np.allclose(s[1, 1] - s[1, 0], c[1, 1] - c[1, 0])  # tangents keep their direction
+
+    def test_chair_discovery_finds_the_edges(self, chair):
+        scene, gt = chair
+        cand = find_candidates(working_scene(scene, 128), 96)
+        found = choose_curves(cand, 64)
+        assert 10 <= len(found.control_points) <= 64
+        p, r = edge_scores(found.control_points, gt["feature_edges"], 0.04 * scene.frame.radius)
+        assert p > 0.75 and r > 0.5, (p, r)  # 12 views at 128 px: coarse; the full-size bars are in bench_fit
+        assert found.normals.shape == (len(found.control_points), 2, 2, 3)
+
+
+class TestFacing:
+    def test_back_facing_rule(self):
+        pts = np.zeros((4, 3))
+        up, side, zero = [0, 0, 1.0], [1.0, 0, 0], [0, 0, 0]
+        normals = np.array([[[up, up]] * 2, [[up, side]] * 2, [[zero, zero]] * 2, [[up, up]] * 2])
+        eyes = np.array([[0, 0, -5.0], [-5.0, 0, -5.0], [0, 0, -5.0], [5.0, 0, 0.2]])
+        hidden = back_facing(pts, np.full(4, 0.5), normals, eyes, np.zeros((4, 3)), np.zeros(4, bool))
+        # below a face: hidden; below and behind both: hidden; unknown: shown; near edge-on: shown (outline)
+        assert hidden.tolist() == [True, True, False, False]
+
+    def test_box_edge_gets_its_two_faces(self):
+        occupied = np.zeros((40, 40, 40), bool)
+        occupied[10:30, 10:30, 10:30] = True
+        grid = VoxelGrid(np.zeros(3), 0.1, occupied.shape)
+        edge = np.array([[[1.0, 2.95, 2.95], [1.6, 2.95, 2.95], [2.3, 2.95, 2.95], [2.9, 2.95, 2.95]]])  # +y/+z edge
+        n = curve_normals(edge, grid, occupied)[0]
+        for end in n:
+            best = [max(float(f @ face) for f in end) for face in ([0, 1.0, 0], [0, 0, 1.0])]
+            assert min(best) > np.cos(np.radians(10)), end  # each face's normal, within 10°
+
+    def test_exporter_hides_back_edges_with_normals(self):
+        # the top and bottom front edges of a unit cube seen from above the front: the bottom-back one hides
+        edges = np.array([[[-1, -1, 1], [-0.3, -1, 1], [0.3, -1, 1], [1, -1, 1]],   # top front: faces +z, -y
+                          [[-1, 1, -1], [-0.3, 1, -1], [0.3, 1, -1], [1, 1, -1]]], float)  # bottom back: -z, +y
+        normals = np.array([[[[0, 0, 1], [0, -1, 0]]] * 2, [[[0, 0, -1], [0, 1, 0]]] * 2], float)
+        from doodle.cameras import look_at
+        from doodle.cameras.camera import Camera
+
+        R, t = look_at(np.array([0, -6.0, 4.0]), np.zeros(3), np.array([0, 0, 1.0]))
+        cam = Camera(300, 300, 128, 128, 256, 256, R, t)
+        s = StrokeSet(SceneFrame(radius=2.0), CurveSet(edges, 1.5, normals))
+        hide = [op.id for op in draw(s, cam, DrawOptions(hidden="hide")).layer("curves")]
+        show = [op.id for op in draw(s, cam, DrawOptions(hidden="show")).layer("curves")]
+        assert hide == ["curve-000"] and show == ["curve-000", "curve-001"]
+
+
+class TestOccluders:
+    def test_occluder_hides_but_draws_nothing(self):
+        from doodle.cameras import look_at
+        from doodle.cameras.camera import Camera
+
+        sq = SuperquadricSet(np.array([[0.5, 0.5, 0.5]]), np.array([[1.0, 1.0]]), np.array([[1.0, 0, 0, 0]]),
+                             np.zeros((1, 3)), outline=np.array([False]))
+        behind = np.array([[[-1, 2, 0], [-0.3, 2, 0], [0.3, 2, 0], [1, 2, 0.0]]])  # behind the ball
+        R, t = look_at(np.array([0, -6.0, 0.0]), np.zeros(3), np.array([0, 0, 1.0]))
+        cam = Camera(300, 300, 128, 128, 256, 256, R, t)
+        d = draw(StrokeSet(SceneFrame(radius=2.0), CurveSet(behind), sq), cam, DrawOptions(hidden="dash"))
+        assert d.layer("silhouettes") == [] and d.layer("hidden") and d.layer("curves")  # split around the ball
+        sq.outline = None
+        assert draw(StrokeSet(SceneFrame(radius=2.0), CurveSet(behind), sq), cam).layer("silhouettes")
+
+
+ABC = __import__("pathlib").Path(__file__).resolve().parents[2] / "shared" / "data" / "abc-nef" / "00000006"
+
+
+def test_cad_part_edges_match_the_ground_truth():
+    """ABC-NEF 00000006 (a hex nut): the discovered curves alone meet the issue's bars for the default fit
+    (3D precision ≥ 0.9 and recall ≥ 0.85 at 0.02, at most 48 curves); benchmarks/bench_fit.py runs the
+    whole default fit."""
+    if not (ABC / "transforms_train.json").exists():
+        pytest.skip("ABC-NEF data (../shared/data/abc-nef) not present")
+    from doodle.curvemetrics import curve_metrics, read_abc_ground_truth
+    from doodle.scenes import load_scene_at_size
+
+    scene = load_scene_at_size(ABC, "train", 512)
+    found = choose_curves(find_candidates(scene), 96)
+    m = curve_metrics(found.control_points, read_abc_ground_truth(ABC / "ground_truth"))
+    assert len(found.control_points) <= 48 and m["precision"] >= 0.9 and m["recall"] >= 0.85, (len(found.control_points), m)
