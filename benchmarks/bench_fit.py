@@ -1,9 +1,12 @@
-"""Benchmark the fitting core on the procedural scenes and (when present) the real Lego scene.
+"""Benchmark the fitting core: quality and speed on the procedural scenes and, when present, the real data.
 
-Targets (issue 4): Lego, 32 curves, default settings, images → stroke file ≤ 3 min and ≤ 4 GB peak memory on
-2 CPU cores; snowman with superquadrics ≤ 2 min. Prints quality figures: ground-truth edge precision/recall
-for the chair (24 curves, 2 % of the radius), silhouette IoU for the snowman, and ``doodle eval`` metrics on
-10 Lego views held out from fitting. Run: ``python benchmarks/bench_fit.py [--no-lego] [--only snowman,lamp,lego]``.
+Bars (issue 9, stroke discovery), all with default settings on 2 CPU cores:
+- ABC-NEF 00000006: 3D precision ≥ 0.90 and recall ≥ 0.85 at 0.02 (NEF/EMAP protocol), at most 48 curves;
+- Lego: ``doodle eval`` F ≥ 0.75 on 10 held-out views, at least 16 curves; images → stroke file ≤ 3 min, the
+  evidence and curve extraction together ≤ 20 s; ``--sheet DIR`` writes the contact sheets to look at;
+- chair, lamp, snowman: no worse than the README's quality table; the chair's ground-truth edges (24 curves).
+
+Run: ``python benchmarks/bench_fit.py [--only snowman,lamp,chair,abc,lego] [--sheet DIR]``.
 """
 
 from __future__ import annotations
@@ -19,57 +22,94 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from doodle.evaluate import evaluate  # noqa: E402
+from doodle.exporters import ExportOptions, export_views  # noqa: E402
 from doodle.fit import FitConfig, fit  # noqa: E402
-from doodle.fit.pipeline import silhouette_iou  # noqa: E402
-from doodle.fit.targets import working_scene  # noqa: E402
 from doodle.samples import load_ground_truth, write_sample  # noqa: E402
 from doodle.scenes import load_scene, load_scene_at_size  # noqa: E402
 from helpers_geometry import edge_scores  # noqa: E402
 
-LEGO = Path(__file__).resolve().parents[2] / "shared" / "data" / "nerf_synthetic" / "lego"
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+LEGO = DATA / "nerf_synthetic" / "lego"
+ABC = DATA / "abc-nef" / "00000006"
 
 
 def quiet(msg: str) -> None:
-    print(f"    {msg}")
+    print(f"    {msg}", flush=True)
+
+
+def stages(messages: list[str]) -> str:
+    """The discovery timing line of a fit's log, if any."""
+    return next((m for m in messages if m.startswith("discovery:") and "(" in m and " s)" in m), "")
+
+
+def line(name: str, dt: float, s, m: dict) -> str:
+    drawn = int(s.superquadrics.drawn.sum()) if len(s.superquadrics) else 0
+    return (f"{name:8s} {dt:6.1f} s  {len(s.curves)} curves, {len(s.superquadrics)} superquadrics ({drawn} drawn)  "
+            f"eval P {m['line_precision']:.3f} R {m['silhouette_recall']:.3f} F {m['f_score']:.3f}")
+
+
+def sheet(strokes, cameras, out: Path | None, name: str) -> None:
+    if out is not None:
+        export_views(strokes, cameras, out / name, ExportOptions(svg=False, sheet=out / f"{name}.png"))
 
 
 def main() -> None:
     only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
+    sheets = Path(sys.argv[sys.argv.index("--sheet") + 1]) if "--sheet" in sys.argv else None
+    want = lambda name: only is None or name in only  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
-        for name, cfg in (("snowman", FitConfig()), ("chair", FitConfig(curves=24, superquadrics=0)), ("lamp", FitConfig())):
-            if only is not None and name not in only:
+        for name in ("snowman", "chair", "lamp"):
+            if not want(name):
                 continue
             d = write_sample(name, Path(tmp) / name)
             t0 = time.perf_counter()
-            res = fit(load_scene(d), cfg, log=quiet, progress=False)
+            res = fit(load_scene(d), FitConfig(), log=quiet, progress=False)
             dt = time.perf_counter() - t0
-            s = res.strokes
             test = load_scene(d, split="test")
-            m = evaluate(s, test)
-            line = (f"{name:8s} {dt:6.1f} s  {len(s.curves)} curves {len(s.superquadrics)} superquadrics  "
-                    f"eval P {m['line_precision']:.3f} R {m['silhouette_recall']:.3f} F {m['f_score']:.3f}")
-            if len(s.superquadrics):
-                w = working_scene(test, 256)
-                line += f"  test IoU {silhouette_iou(s.superquadrics, w.cameras, w.masks):.3f}"
+            out = line(name, dt, res.strokes, evaluate(res.strokes, test))
             if name == "chair":
-                p, r = edge_scores(s.curves.control_points, load_ground_truth(d)["feature_edges"], 0.02 * test.frame.radius)
-                line += f"  GT edges: {p:.0%} of curve length on an edge, {r:.0%} of edge length covered"
-            print(line, flush=True)
-    if (only is not None and "lego" not in only) or "--no-lego" in sys.argv or not (LEGO / "transforms_train.json").exists():
-        print("lego: skipped (../shared/data/nerf_synthetic/lego not present)" if "--no-lego" not in sys.argv else "")
-        return
-    t0 = time.perf_counter()
-    scene = load_scene_at_size(LEGO, "train", 256)
-    held = np.arange(0, len(scene), 10)
-    fit_views = np.setdiff1d(np.arange(len(scene)), held)
-    res = fit(scene.subset(fit_views), FitConfig(curves=32), log=quiet, progress=False)
-    dt = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
-    m = evaluate(res.strokes, scene.subset(held))
-    s = res.strokes
-    print(f"lego     {dt:6.1f} s images → strokes, peak memory {peak:.2f} GB; {len(s.curves)} curves "
-          f"{len(s.superquadrics)} superquadrics; 10 held-out views: P {m['line_precision']:.3f} "
-          f"R {m['silhouette_recall']:.3f} F {m['f_score']:.3f} IoU {m['silhouette_iou']}")
+                gt = load_ground_truth(d)["feature_edges"]
+                p, r = edge_scores(res.strokes.curves.control_points, gt, 0.02 * test.frame.radius)
+                c24 = fit(load_scene(d), FitConfig(curves=24, superquadrics=0), log=lambda m: None, progress=False)
+                p24, r24 = edge_scores(c24.strokes.curves.control_points, gt, 0.02 * test.frame.radius)
+                out += (f"  GT edges: {p:.0%} of curve length on an edge, {r:.0%} of edge length covered "
+                        f"(24 curves: {p24:.0%}, {r24:.0%})")
+            print(out, flush=True)
+            sheet(res.strokes, test.cameras, sheets, name)
+    if want("abc"):
+        if not (ABC / "transforms_train.json").exists():
+            print("abc: skipped (../shared/data/abc-nef/00000006 not present)")
+        else:
+            from doodle.curvemetrics import read_abc_ground_truth
+
+            t0 = time.perf_counter()
+            scene = load_scene_at_size(ABC, "train", 512)
+            res = fit(scene, FitConfig(), log=quiet, progress=False)
+            dt = time.perf_counter() - t0
+            test = load_scene_at_size(ABC, "test", 256)
+            m = evaluate(res.strokes, test, truth=read_abc_ground_truth(ABC / "ground_truth"))
+            c3 = m["curves_3d"]
+            print(line("abc", dt, res.strokes, m) + f"  3D: P {c3['precision']:.3f} R {c3['recall']:.3f} "
+                  f"F {c3['f_score']:.3f} Chamfer {c3['chamfer']:.4f} (NEF: 0.99 / 1.00 / 0.018, 42 curves)",
+                  flush=True)
+            sheet(res.strokes, test.cameras, sheets, "abc")
+    if want("lego"):
+        if not (LEGO / "transforms_train.json").exists():
+            print("lego: skipped (../shared/data/nerf_synthetic/lego not present)")
+            return
+        t0 = time.perf_counter()
+        scene = load_scene_at_size(LEGO, "train", 512)
+        held = np.arange(0, len(scene), 10)
+        messages: list[str] = []
+        res = fit(scene.subset(np.setdiff1d(np.arange(len(scene)), held)), FitConfig(),
+                  log=lambda m: (messages.append(m), quiet(m)), progress=False)
+        dt = time.perf_counter() - t0
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+        test = load_scene_at_size(LEGO, "train", 256).subset(held)
+        m = evaluate(res.strokes, test)
+        print(line("lego", dt, res.strokes, m) + f"  (images → strokes, 10 views held out; peak memory {peak:.2f} GB; "
+              f"{stages(messages)})", flush=True)
+        sheet(res.strokes, test.cameras, sheets, "lego")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ InitMethod = Literal["auto", "points", "hull", "bbox"]
 
 
 #: With ``curves="auto"``, discovery chooses at most this many.
-AUTO_MAX_CURVES = 96
+AUTO_MAX_CURVES = 128
 
 
 @dataclass

@@ -26,7 +26,7 @@ from ..strokes.bezier import bezier_points
 from ..strokes.fitcurve import fit_cubics_many
 from .evidence import Evidence, _project, edge_evidence
 from .facing import curve_normals
-from .ridges import link_ridges, ridge_points
+from .ridges import _bridge, link_ridges, ridge_points
 
 
 @dataclass
@@ -47,6 +47,10 @@ class Discovery:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
+#: 3D fitting tolerance of the cubics, in voxels.
+TOLERANCE_VOXELS = 2.0
+#: The ridge threshold's evidence level; a bridge across a gap needs half of it on average.
+BRIDGE_EVIDENCE = 0.15
 _NEIGHBOURS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
 
 
@@ -175,6 +179,65 @@ def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samp
     return c.detach().numpy().astype(np.float64) * h + ev.grid.origin
 
 
+def bridge_gaps(controls: np.ndarray, ev: Evidence, max_gap: float, min_evidence: float,
+                max_angle_deg: float = 30.0) -> np.ndarray:
+    """Cubics ``(B, 4, 3)`` closing gaps between chosen strokes whose ends face each other.
+
+    Two ends at most ``max_gap`` apart, each pointing at the other within ``max_angle_deg`` and roughly
+    opposite, are joined by the Hermite cubic matching both end tangents when the (smoothed) evidence along
+    it averages at least ``min_evidence``: an edge that the ridges left in dashes is drawn whole.
+    """
+    if len(controls) < 2:
+        return np.zeros((0, 4, 3))
+    ends = np.concatenate([controls[:, 0], controls[:, 3]])
+    out_dir = np.concatenate([controls[:, 0] - controls[:, 1], controls[:, 3] - controls[:, 2]])
+    out_dir /= np.maximum(np.linalg.norm(out_dir, axis=1, keepdims=True), 1e-12)
+    pairs = cKDTree(ends).query_pairs(max_gap, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros((0, 4, 3))
+    n = len(controls)
+    a, b = pairs[:, 0], pairs[:, 1]
+    gap = ends[b] - ends[a]
+    dist = np.linalg.norm(gap, axis=1)
+    cos_max = np.cos(np.radians(max_angle_deg))
+    safe = np.maximum(dist, 1e-12)
+    ok = (a % n != b % n) & (dist > 0.5 * ev.grid.voxel)
+    ok &= ((gap * out_dir[a]).sum(1) / safe >= cos_max) & ((-gap * out_dir[b]).sum(1) / safe >= cos_max)
+    S = ndimage.gaussian_filter(ev.score.astype(np.float32), 0.7)
+    used = np.zeros(len(ends), bool)
+    bridges = []
+    for i in np.flatnonzero(ok)[np.argsort(dist[ok])]:
+        ea, eb = a[i], b[i]
+        if used[ea] or used[eb]:
+            continue
+        third = dist[i] / 3
+        c = np.stack([ends[ea], ends[ea] + third * out_dir[ea], ends[eb] + third * out_dir[eb], ends[eb]])
+        ijk = np.clip(ev.grid.index(bezier_points(c, np.linspace(0, 1, 9))), 0, np.array(S.shape) - 1)
+        if S[tuple(ijk.T)].mean() >= min_evidence:
+            bridges.append(c)
+            used[ea] = used[eb] = True
+    return np.array(bridges) if bridges else np.zeros((0, 4, 3))
+
+
+def join_strokes(controls: np.ndarray, voxel: float, tolerance: float, max_angle_deg: float = 25.0,
+                 samples_per_voxel: float = 1.0) -> np.ndarray:
+    """Merge cubics that continue each other (ends within a voxel and a half, tangents within
+    ``max_angle_deg``) into chains and refit each chain within ``tolerance``: a straight edge left in
+    pieces becomes one cubic again, a circle four."""
+    if len(controls) < 2:
+        return controls
+    polys = []
+    for c in controls:
+        rough = bezier_points(c, np.linspace(0, 1, 9))
+        n = max(4, int(np.linalg.norm(np.diff(rough, axis=0), axis=1).sum() / voxel * samples_per_voxel))
+        polys.append(bezier_points(c, np.linspace(0, 1, n)))
+    chains = _bridge(polys, 1.5 * voxel, max_angle_deg, touch=1.5 * voxel)
+    if len(chains) == len(polys):
+        return controls
+    pieces = fit_cubics_many(chains, tolerance, [bool(np.linalg.norm(p[0] - p[-1]) < 1e-9) for p in chains])
+    return np.concatenate(pieces)
+
+
 def snap_ends(controls: np.ndarray, radius: float) -> np.ndarray:
     """Move stroke end points that lie within ``radius`` of each other onto their common mean (corners meet).
 
@@ -245,7 +308,7 @@ class Candidates:
 
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
-                    tolerance_voxels: float = 2.0, max_views: int = 48,
+                    tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48,
                     log: Callable[[str], None] = lambda m: None) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
@@ -283,7 +346,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
                           for m, o in zip((scene.masks[v] for v in views), offsets)])
     seconds["coverage"] = time.perf_counter() - t
     log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls)} candidate cubics "
-        f"({sum(seconds.values()):.1f} s)")
+        f"(evidence {seconds['evidence']:.1f} s, curves {seconds['curves']:.1f} s)")
     return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds)
 
 
@@ -307,18 +370,25 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     explained = np.unique(np.concatenate([cand.covers[k] for k in chosen])) if chosen else np.zeros(0, np.int64)
     outline = float(np.isin(cand.rim, explained).mean()) if len(cand.rim) else 0.0
     controls = cand.controls[chosen]
+    bridged = 0
     if polish and len(controls):
-        controls = snap_ends(refine_on_evidence(controls, ev), 2.0 * h)
+        controls = refine_on_evidence(controls, ev)
+        size = h * float(np.linalg.norm(ev.grid.shape))
+        bridges = bridge_gaps(controls, ev, 0.05 * size, 0.5 * BRIDGE_EVIDENCE)
+        bridged = len(bridges)
+        controls = join_strokes(np.concatenate([controls, bridges]), h, TOLERANCE_VOXELS * h)[:max_curves]
+        controls = snap_ends(controls, 2.0 * h)
     normals = curve_normals(controls, ev.grid, ev.occupied, ev.cameras, ev.depth, ev.margin)
     seconds = {**cand.seconds, "choice": time.perf_counter() - t}
     coverage = len(explained) / max(cand.total, 1)
-    log(f"discovery: {len(controls)} of {len(cand.controls)} candidate cubics chosen, explaining {coverage:.0%} of "
-        f"the line pixels and {outline:.0%} of the outlines")
+    log(f"discovery: {len(chosen)} of {len(cand.controls)} candidate cubics chosen, explaining {coverage:.0%} of the "
+        f"line pixels and {outline:.0%} of the outlines" + (f"; {bridged} gaps bridged, {len(controls)} cubics after "
+                                                               f"joining" if polish else ""))
     return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds)
 
 
 def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, threshold: float = 0.15,
-                    min_length: float = 0.03, tolerance_voxels: float = 2.0, min_gain: float = 0.0005,
+                    min_length: float = 0.03, tolerance_voxels: float = TOLERANCE_VOXELS, min_gain: float = 0.0005,
                     max_views: int = 48, log: Callable[[str], None] = lambda m: None) -> Discovery:
     """:func:`find_candidates` then :func:`choose_curves` (see their arguments)."""
     cand = find_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, max_views, log)

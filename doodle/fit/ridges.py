@@ -131,9 +131,11 @@ def trace_ridges(ridges: RidgePoints, voxel: float, step_radius: float = 2.0, ga
     return out
 
 
-def _bridge(polys: list[np.ndarray], max_gap: float, max_angle_deg: float) -> list[np.ndarray]:
+def _bridge(polys: list[np.ndarray], max_gap: float, max_angle_deg: float, touch: float = 1e-9
+            ) -> list[np.ndarray]:
     """Join open polylines whose ends face each other across a gap of at most ``max_gap``, closest first.
 
+    Ends closer than ``touch`` only need to continue each other (their gap has no direction to check).
     Each end joins at most once; joining the two ends of one chain closes it into a loop.
     """
     if len(polys) < 1:
@@ -142,7 +144,7 @@ def _bridge(polys: list[np.ndarray], max_gap: float, max_angle_deg: float) -> li
     pos, out_dir = np.zeros((2 * len(polys), 3)), np.zeros((2 * len(polys), 3))
     usable = np.zeros(2 * len(polys), bool)
     for k, p in enumerate(polys):
-        if len(p) < 3 or np.allclose(p[0], p[-1]):
+        if len(p) < 3 or np.linalg.norm(p[0] - p[-1]) <= touch:
             continue
         m = min(len(p) - 1, 4)
         for e, q, inner in ((2 * k, p[0], p[m]), (2 * k + 1, p[-1], p[-1 - m])):
@@ -156,7 +158,7 @@ def _bridge(polys: list[np.ndarray], max_gap: float, max_angle_deg: float) -> li
     gap = pos[b] - pos[a]
     dist = np.linalg.norm(gap, axis=1)
     safe = np.maximum(dist, 1e-9)
-    facing = (dist <= 1e-9) | (((gap * out_dir[a]).sum(1) / safe >= cos_max) & ((-gap * out_dir[b]).sum(1) / safe >= cos_max))
+    facing = (dist <= touch) | (((gap * out_dir[a]).sum(1) / safe >= cos_max) & ((-gap * out_dir[b]).sum(1) / safe >= cos_max))
     ok = facing & (-(out_dir[a] * out_dir[b]).sum(1) >= cos_max)
     a, b, dist = a[ok], b[ok], dist[ok]
     partner = np.full(2 * len(polys), -1)
