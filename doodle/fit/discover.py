@@ -49,6 +49,8 @@ class Discovery:
 
 #: 3D fitting tolerance of the cubics, in voxels.
 TOLERANCE_VOXELS = 2.0
+#: A stroke shorter than this share of the object's size that touches no other stroke is dropped.
+STRAY_LENGTH = 0.02
 #: The ridge threshold's evidence level; a bridge across a gap needs half of it on average.
 BRIDGE_EVIDENCE = 0.15
 _NEIGHBOURS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
@@ -238,6 +240,21 @@ def join_strokes(controls: np.ndarray, voxel: float, tolerance: float, max_angle
     return np.concatenate(pieces)
 
 
+def drop_stray(controls: np.ndarray, min_length: float, touch: float) -> np.ndarray:
+    """Drop strokes shorter than ``min_length`` that touch no other stroke at either end: alone, they read as
+    ticks and dots; at a corner or in a chain they are part of a line."""
+    if len(controls) == 0:
+        return controls
+    length = np.linalg.norm(np.diff(bezier_points(controls, np.linspace(0, 1, 17)), axis=1), axis=2).sum(1)
+    ends = np.concatenate([controls[:, 0], controls[:, 3]])
+    n = len(controls)
+    touching = np.zeros(n, bool)
+    for a, b in cKDTree(ends).query_pairs(touch, output_type="ndarray"):
+        if a % n != b % n:
+            touching[a % n] = touching[b % n] = True
+    return controls[(length >= min_length) | touching]
+
+
 def snap_ends(controls: np.ndarray, radius: float) -> np.ndarray:
     """Move stroke end points that lie within ``radius`` of each other onto their common mean (corners meet).
 
@@ -377,7 +394,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         bridges = bridge_gaps(controls, ev, 0.05 * size, 0.5 * BRIDGE_EVIDENCE)
         bridged = len(bridges)
         controls = join_strokes(np.concatenate([controls, bridges]), h, TOLERANCE_VOXELS * h)[:max_curves]
-        controls = snap_ends(controls, 2.0 * h)
+        controls = snap_ends(drop_stray(controls, STRAY_LENGTH * size, 2.0 * h), 2.0 * h)
     normals = curve_normals(controls, ev.grid, ev.occupied, ev.cameras, ev.depth, ev.margin)
     seconds = {**cand.seconds, "choice": time.perf_counter() - t}
     coverage = len(explained) / max(cand.total, 1)
