@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 from dataclasses import dataclass, field, replace
@@ -12,7 +13,7 @@ from typing import Callable
 import numpy as np
 from PIL import Image
 
-from .atomic import atomic_path, write_text
+from .atomic import atomic_path
 from .cameras import orbit_cameras
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many
@@ -118,29 +119,30 @@ def animate_many(strokes: StrokeSet, outputs: dict[str, Path], opt: AnimateOptio
         except ImportError:
             raise DoodleError("--mp4 needs imageio-ffmpeg, which is not installed "
                               "(pip install 'doodle3d[video]')") from None
+    for path in outputs.values():
+        if not path.parent.is_dir():
+            raise DoodleError(f"{path}: folder {path.parent} does not exist")
     svgs, images = render_frames(strokes, opt, progress)
-    written = []
     duration_ms = 1000.0 / opt.fps
-    for fmt, path in outputs.items():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if fmt == "gif":
-            pal = [im.quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE) for im in images]
-            with atomic_path(path) as tmp:
+    with contextlib.ExitStack() as stack:
+        # every output goes to its own temporary file; they are renamed into place only once all are written
+        for fmt, path in outputs.items():
+            tmp = stack.enter_context(atomic_path(path))
+            if fmt == "gif":
+                pal = [im.quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE) for im in images]
                 pal[0].save(tmp, format="GIF", save_all=True, append_images=pal[1:], duration=duration_ms, loop=0,
                             optimize=True, disposal=1)
-        elif fmt == "apng":
-            with atomic_path(path) as tmp:
+            elif fmt == "apng":
                 images[0].save(tmp, format="PNG", save_all=True, append_images=images[1:], duration=duration_ms,
                                loop=0, optimize=False)
-        elif fmt == "mp4":
-            import imageio.v2 as iio
+            elif fmt == "mp4":
+                import imageio.v2 as iio
 
-            with atomic_path(path) as tmp:
                 even = [np.asarray(im)[: im.height // 2 * 2, : im.width // 2 * 2] for im in images]
                 iio.mimwrite(tmp, even, format="FFMPEG", fps=opt.fps, codec="libx264", quality=8, macro_block_size=1)
-        else:
-            write_text(path, animated_svg(svgs, opt.fps))
-        written.append(path)
+            else:
+                tmp.write_text(animated_svg(svgs, opt.fps), encoding="utf-8")
+    written = list(outputs.values())
     return written
 
 

@@ -13,10 +13,19 @@ from typing import Iterator
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed over ``path``.
 
-    On any exception the temporary file is removed and ``path`` is left untouched.
+    On any exception the temporary file is removed and ``path`` is left untouched. The folder must exist: a
+    mistyped folder is an error, not a surprise folder.
+
+    Raises:
+        DoodleError: when ``path``'s folder does not exist or ``path`` is a folder.
     """
+    from .errors import DoodleError
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if not path.parent.is_dir():
+        raise DoodleError(f"{path}: folder {path.parent} does not exist")
+    if path.is_dir():
+        raise DoodleError(f"{path}: is a folder")
     # Hidden, beside the target (same file system, so the rename is atomic), and with the target's suffix:
     # some writers (ffmpeg) pick the format from it.
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.tmp-", suffix=path.suffix, dir=path.parent)
@@ -43,3 +52,89 @@ def write_bytes(path: str | os.PathLike, data: bytes) -> None:
 def write_text(path: str | os.PathLike, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically."""
     write_bytes(path, text.encode("utf-8"))
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``); False where unsupported."""
+    import ctypes
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    AT_FDCWD, RENAME_EXCHANGE = -100, 2
+    return renameat2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0
+
+
+def _carry_over(old: Path, new: Path) -> None:
+    """Hard-link (or copy) what ``old`` holds and ``new`` does not, so a swap loses no unrelated file."""
+    import shutil
+
+    for entry in old.iterdir():
+        target = new / entry.name
+        if target.exists() or target.is_symlink():
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.copytree(entry, target, symlinks=True)
+        else:
+            try:
+                os.link(entry, target, follow_symlinks=False)
+            except OSError:
+                shutil.copy2(entry, target, follow_symlinks=False)
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield an empty sibling folder to fill; on success it replaces the files of ``path`` in one step.
+
+    Files of ``path`` that the new content does not replace are kept. The swap is one atomic exchange on
+    Linux, so a kill at any moment leaves ``path`` entirely old or entirely new (elsewhere two renames).
+    A lock beside ``path`` refuses a second writer into the same folder; temporary folders that a killed
+    writer left behind are removed by the next one.
+
+    Raises:
+        DoodleError: when ``path`` is a file, or another process is writing to it.
+    """
+    import fcntl
+    import shutil
+
+    from .errors import DoodleError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise DoodleError(f"{path}: exists and is not a folder")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock_fd = os.open(path.parent / f".{path.name}.doodle-lock", os.O_CREAT | os.O_RDWR, 0o644)
+    try:
+        try:
+            fcntl.flock(lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise DoodleError(f"{path}: another doodle command is writing to this folder") from None
+        for stale in path.parent.glob(f".{path.name}.doodle-*.tmp"):  # left by a killed writer
+            shutil.rmtree(stale, ignore_errors=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.doodle-new-", suffix=".tmp", dir=path.parent))
+        try:
+            yield tmp
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o777 & ~umask)
+            if not path.exists():
+                os.rename(tmp, path)
+            else:
+                _carry_over(path, tmp)
+                if not _exchange(tmp, path):
+                    old = Path(tempfile.mkdtemp(prefix=f".{path.name}.doodle-old-", suffix=".tmp", dir=path.parent))
+                    os.rmdir(old)
+                    os.rename(path, old)
+                    os.rename(tmp, path)
+                    tmp = old
+                shutil.rmtree(tmp, ignore_errors=True)  # after the swap: the old content
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+    finally:
+        os.close(lock_fd)

@@ -31,6 +31,9 @@ class DoodleGroup(click.Group):
             return super().invoke(ctx)
         except DoodleError as exc:
             raise UserError(str(exc).splitlines()[0]) from None
+        except OSError as exc:  # unwritable output, full disk, vanished file: the file and the reason
+            where = exc.filename if exc.filename is not None else "I/O"
+            raise UserError(f"{where}: {exc.strerror or exc}".splitlines()[0]) from None
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
         kwargs["standalone_mode"] = False
@@ -60,14 +63,22 @@ def cli() -> None:
 @click.option("--test", "n_test", default=10, show_default=True, type=click.IntRange(1, 1000), help="Held-out views.")
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096), help="Image size in pixels.")
 @click.option("--force", is_flag=True, help="Replace OUT_DIR if it exists.")
-def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool) -> None:
+@click.option("--capture", is_flag=True,
+              help="Write a phone-capture-like COLMAP project instead: JPEGs over a textured floor and wall, "
+                   "landscape and portrait (some EXIF-rotated), lens distortion, no masks (--train photos).")
+def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool) -> None:
     """Write procedural sample scene NAME (chair, snowman, lamp) as a NeRF-synthetic folder.
 
     The folder holds RGBA renders from the upper hemisphere, transforms_{train,test}.json and
-    ground_truth.json (primitives and visible feature edges).
+    ground_truth.json (primitives and visible feature edges). With --capture, a COLMAP project
+    (images/, sparse/0/, true_masks/ for measuring automatic masks).
     """
-    from .samples import write_sample
+    from .samples import write_capture, write_sample
 
+    if capture:
+        out = write_capture(name, out_dir, n=n_train, size=size, force=force)
+        click.echo(f"wrote {name} as a phone capture: {n_train} photos, long side {size} px, to {out}")
+        return
     out = write_sample(name, out_dir, n_train=n_train, n_test=n_test, size=size, force=force)
     click.echo(f"wrote {name}: {n_train} train + {n_test} test views at {size} px to {out}")
 
@@ -151,7 +162,9 @@ def _background(value: str | None) -> str | None:
         return None
     import re
 
-    if not re.fullmatch(r"#[0-9a-fA-F]{6}|[a-z]+", value):
+    from cairosvg.colors import COLORS  # the SVG/CSS colour names the rasteriser knows
+
+    if not (re.fullmatch(r"#[0-9a-fA-F]{6}", value) or value.lower() in COLORS):
         raise click.BadParameter(f"expected #rrggbb, a colour name or 'transparent', got {value!r}", param_hint="--background")
     return value
 
@@ -192,7 +205,11 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
                          draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves))
     with _progress(len(cams), "drawing") as bar:
         files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(k - bar.n))
-    click.echo(f"wrote {len(files)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
+    views = [f for f in files if sheet is None or f != Path(sheet)]
+    if views:
+        click.echo(f"wrote {len(views)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
+    else:
+        click.echo(f"wrote sheet {sheet} of {len(cams)} views")
 
 
 @cli.command()
@@ -299,10 +316,13 @@ def _log(msg: str) -> None:
 @click.option("--preview-every", type=int, default=250, show_default=True)
 @click.option("--checkpoint-every", type=int, default=200, show_default=True)
 @click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written while fitting.")
+@click.option("--masks", default="auto", show_default=True, metavar="auto|none|DIR",
+              help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
+                   "(auto); none; or a folder with NAME.png per view.")
 def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discover: bool, evidence_size: int,
         evidence_voxels: int, iterations: int | None, sq_iterations: int, size: int, views_per_step: int, seed: int,
         device: str, split: str, init: str, objective: str, preview_dir: Path | None, preview_every: int,
-        checkpoint_every: int, resume: bool) -> None:
+        checkpoint_every: int, resume: bool, masks: str) -> None:
     """Fit strokes to the posed images in SCENE (NeRF-synthetic, nerfstudio, COLMAP, or plain photos).
 
     Ctrl-C stops early and still writes the best strokes so far; --resume continues from the checkpoint.
@@ -316,8 +336,11 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
                     evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
                     size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
                     init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
+    from .fit.automask import with_masks
+
     scene = load_scene_at_size(scene_dir, split, max(size, evidence_size) if discover else size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
+    scene = with_masks(scene, masks, Path(scene_dir) / "doodle-masks", log=_log)
     ckpt = out_path.with_name(out_path.name + ".ckpt")
     result = fit_scene(scene, cfg, checkpoint=ckpt, resume=resume, log=_log, progress=True)
     n = write_strokes(out_path, result.strokes)
@@ -341,8 +364,10 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
                    "3D Chamfer distance, precision, recall and F.")
 @click.option("--gt-threshold", type=float, default=0.02, show_default=True, callback=_positive_float,
               help="Distance for 3D precision and recall (scene units).")
+@click.option("--masks", "masks_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Measure silhouettes against these masks (NAME.png per view) instead of the scene's.")
 def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, json_out: Path | None,
-             gt_dir: Path | None, gt_threshold: float) -> None:
+             gt_dir: Path | None, gt_threshold: float, masks_dir: Path | None) -> None:
     """Measure STROKES on SCENE's held-out views: line precision, silhouette recall, F-score, IoU, size;
     with --gt-curves, also the 3D curve accuracy as NEF and EMAP report it."""
     from .atomic import write_text
@@ -356,7 +381,12 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
         from .curvemetrics import read_abc_ground_truth
 
         truth = read_abc_ground_truth(gt_dir)
-    metrics = evaluate(s, load_scene_at_size(scene_dir, split, size), tau=tau, size=size, truth=truth,
+    scene = load_scene_at_size(scene_dir, split, size)
+    if masks_dir is not None:
+        from .fit.automask import with_masks
+
+        scene = with_masks(scene, masks_dir, log=_log)
+    metrics = evaluate(s, scene, tau=tau, size=size, truth=truth,
                        gt_threshold=gt_threshold)
     if json_out is not None and str(json_out) == "-":
         click.echo(json.dumps(metrics, indent=1))

@@ -30,7 +30,7 @@ def format_description(info: dict[str, Any]) -> str:
     """Human-readable text of :func:`describe`'s result."""
     bb = info["bounding_box"]
     lines = [
-        f"{info['file']}",
+        f"{_printable(info['file'])}",
         f"  curves          {info['curves']}",
         f"  superquadrics   {info['superquadrics']}",
         f"  bounding box    {bb['min']} .. {bb['max']}",
@@ -38,5 +38,12 @@ def format_description(info: dict[str, Any]) -> str:
         f"  size            {info['bytes']['file']} B on disk; JSON {info['bytes']['json']} B, binary {info['bytes']['binary']} B",
     ]
     for k, v in info["provenance"].items():
-        lines.append(f"  {k:<15} {v}")
+        lines.append(f"  {_printable(k):<15} {_printable(v)}")
     return "\n".join(lines)
+
+
+def _printable(value: object, limit: int = 200) -> str:
+    """``value`` as text safe for a terminal: control characters (escape sequences) shown escaped, cut to
+    ``limit`` characters. Provenance comes from files that anyone may have written."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(value))
+    return text if len(text) <= limit else text[: limit - 1] + "…"

@@ -187,7 +187,7 @@ class TestInputs:
 
     def test_too_few_photos(self, tmp_path):
         Image.new("RGB", (8, 8)).save(tmp_path / "a.png")
-        with pytest.raises(SceneError, match="no transforms_train.json"):
+        with pytest.raises(SceneError, match="needs at least 3 photos, found 1"):
             load_scene(tmp_path)
 
 
@@ -299,5 +299,5 @@ def test_unreadable_photo_is_named(tmp_path):
     for k in range(3):
         Image.new("RGB", (64, 64), (128, 128, 128)).save(tmp_path / f"p{k}.png")
     (tmp_path / "p3.jpg").write_bytes(b"not a jpeg")
-    with pytest.raises(SceneError, match="p3.jpg: not a readable image"):
+    with pytest.raises(SceneError, match="p3.jpg: not an image doodle reads"):
         load_scene(tmp_path)

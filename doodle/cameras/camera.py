@@ -68,6 +68,15 @@ def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> tuple[np.nda
     return R, -R @ eye
 
 
+OUTPUT_CAP = 1024  # px, the long side of default exports
+
+
+def output_size(width: float, height: float, cap: int = OUTPUT_CAP) -> tuple[int, int]:
+    """The default export size for photos of ``width × height``: their size, the long side capped at ``cap``."""
+    f = min(1.0, cap / max(width, height))
+    return max(1, round(width * f)), max(1, round(height * f))
+
+
 @dataclass
 class Camera:
     """A pinhole (or orthographic) camera with square or non-square pixels."""

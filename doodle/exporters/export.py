@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 
 from PIL import Image
 
-from ..atomic import atomic_path
-from ..cameras import Camera, Projection, orbit_cameras
+from ..atomic import atomic_folder, atomic_path
+from ..cameras import Camera, Projection, orbit_cameras, output_size
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
 from ..styles import Style
@@ -60,7 +59,9 @@ def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str 
                    projection: Projection = "perspective") -> list[Camera]:
     """The cameras to draw: an orbit of ``views`` cameras, or the cameras of a dataset's ``split``.
 
-    ``size = (width, height)`` resizes them (height ``None`` keeps the aspect ratio).
+    ``size = (width, height)`` resizes them (height ``None`` keeps the aspect ratio); by default dataset
+    cameras keep their photo's size with the long side capped at 1024 px, and orbits take the size recorded
+    in the stroke file (the dataset's, capped the same way).
     """
     if scene_dir is not None:
         from ..scenes import load_cameras
@@ -69,8 +70,8 @@ def export_cameras(strokes: StrokeSet, views: int | None = None, scene_dir: str 
         if projection == "orthographic":
             raise DoodleError("--projection ortho applies to orbits only; dataset cameras are perspective")
         if size:
-            cams = [c.resized(size[0], size[1]) for c in cams]
-        return cams
+            return [c.resized(size[0], size[1]) for c in cams]
+        return [c.resized(*output_size(c.width, c.height)) for c in cams]
     if views is None or views < 1:
         raise DoodleError(f"--views must be at least 1, got {views}")
     w, h = size if size else (None, None)
@@ -81,8 +82,9 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
                  options: ExportOptions | None = None, progress=None) -> list[Path]:
     """Write ``view_000.svg`` … (and PNG/PDF, sheet) for each camera into ``out_dir``.
 
-    Everything is validated and rendered into a temporary folder first, then moved into ``out_dir``: on any
-    error ``out_dir`` is left as it was.
+    Everything is validated and rendered into a sibling temporary folder first, which then replaces
+    ``out_dir``'s files in one atomic exchange (see :func:`doodle.atomic.atomic_folder`): on any error or
+    kill ``out_dir`` is left as it was. With only a sheet asked for, no folder is touched.
 
     Returns:
         The written paths.
@@ -97,15 +99,19 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     for cam in cameras:
         check_camera(strokes, cam)
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise DoodleError(f"{out}: exists and is not a folder")
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".doodle-export-", dir=out))
+    views = opt.svg or opt.png or opt.pdf
+    if opt.sheet is not None:
+        sheet_dir = Path(opt.sheet).parent
+        if not sheet_dir.is_dir():
+            raise DoodleError(f"{opt.sheet}: folder {sheet_dir} does not exist")
     written: list[Path] = []
     sheet_images: list[Image.Image] = []
-    try:
-        job = partial(_render_views, strokes, opt)
-        report = (lambda done: progress(done, len(cameras))) if progress else None
+    job = partial(_render_views, strokes, opt)
+    report = (lambda done: progress(done, len(cameras))) if progress else None
+    with contextlib.ExitStack() as stack:
+        # views go to a sibling folder that replaces OUT_DIR's files in one step at the end; a sheet alone
+        # touches no folder
+        tmp = stack.enter_context(atomic_folder(out)) if views else None
         for k, (svg, png, pdf) in enumerate(map_chunks(job, cameras, opt.workers, progress=report)):
             stem = f"view_{k:03d}"
             if opt.svg:
@@ -116,15 +122,12 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
                 sheet_images.append(Image.open(io.BytesIO(png)))
             if pdf is not None:
                 (tmp / f"{stem}.pdf").write_bytes(pdf)
-        # built before anything moves, so a failure here leaves OUT_DIR as it was
-        sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))]) if opt.sheet else None
-        for f in sorted(tmp.iterdir()):
-            os.replace(f, out / f.name)
-            written.append(out / f.name)
-        if sheet is not None:
-            with atomic_path(opt.sheet) as sheet_tmp:
-                sheet.save(sheet_tmp, format="PNG")
+        if tmp is not None:
+            written = [out / f.name for f in sorted(tmp.iterdir())]
+        if opt.sheet:
+            # written to its temporary file before the views are swapped in: both land, or neither
+            sheet = contact_sheet(sheet_images, labels=[f"{k}" for k in range(len(cameras))])
+            sheet_file = stack.enter_context(atomic_path(opt.sheet))
+            sheet.save(sheet_file, format="PNG")
             written.append(Path(opt.sheet))
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
     return written

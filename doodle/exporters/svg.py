@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -52,6 +53,15 @@ def path_data(op: PathOp, digits: int) -> str:
     return "".join(parts)
 
 
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_text(text: str) -> str:
+    """``text`` without the characters XML 1.0 forbids (control characters, lone surrogates), which a source
+    path or camera name may carry: the SVG must stay well-formed whatever the input was called."""
+    return _NOT_XML.sub("\ufffd", text)
+
+
 def camera_metadata(drawing: Drawing, source: str = "") -> dict[str, Any]:
     cam = drawing.camera
     return {"generator": "doodle", "source": source, "camera": {
@@ -76,7 +86,7 @@ def to_svg(drawing: Drawing, tolerance: float = 0.05, source: str = "", backgrou
     dwg = svgwrite.Drawing(size=(f"{cam.width}px", f"{cam.height}px"), profile="full", debug=False)
     dwg.viewbox(0, 0, cam.width, cam.height)
     dwg.attribs["xmlns:inkscape"] = INKSCAPE_NS
-    dwg.set_desc(title="doodle sketch", desc=f"{cam.name} of {source}" if source else cam.name)
+    dwg.set_desc(title="doodle sketch", desc=xml_text(f"{cam.name} of {source}" if source else cam.name))
     dwg.add(_Metadata(json.dumps({**camera_metadata(drawing, source), "style": style.name}, sort_keys=True),
                       id="doodle-metadata"))
     bg = style.background if background == "" else (background or "none")

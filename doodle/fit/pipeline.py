@@ -62,6 +62,9 @@ def _validate(cfg: FitConfig, scene: Scene) -> None:
         raise DoodleError(f"--superquadrics must be 'auto' or in [0, 64], got {cfg.superquadrics}")
     if cfg.curves == 0 and cfg.superquadrics == 0:
         raise DoodleError("nothing to fit: --curves 0 and --superquadrics 0")
+    if cfg.curves == 0 and scene.masks is None:
+        raise DoodleError(f"{scene.source}: --curves 0 leaves only superquadrics, which need masks, and the scene "
+                          "has none (give --masks DIR or allow curves)")
     if (cfg.iterations is not None and cfg.iterations < 0) or cfg.sq_iterations < 0:
         raise DoodleError("--iterations must not be negative")
     if not 16 <= cfg.size <= 4096:

@@ -74,12 +74,15 @@ def straightness(scene: Scene, views: int = 8) -> float:
 
 @dataclass
 class ViewTargets:
-    """Tensors for all training views (``V`` views, ``H × W`` pixels, same size for all)."""
+    """Tensors for all training views (``V`` views). Views of different sizes or orientations are padded at
+    the right and bottom to the largest ``H × W``; cameras keep their own size, the padding holds no mask and
+    no line (``valid`` marks real pixels)."""
 
     R: torch.Tensor  # (V, 3, 3)
     t: torch.Tensor  # (V, 3)
     K: torch.Tensor  # (V, 4) fx, fy, cx, cy
     masks: torch.Tensor | None  # (V, H, W) float
+    valid: torch.Tensor  # (V, H, W) float: 1 inside each view's own frame, 0 in the padding
     lines: list[np.ndarray]  # V boolean (H, W) line maps (before removing what silhouettes draw)
     line_dist: torch.Tensor  # (V, H, W) distance in px to the nearest line pixel
     line_pixels: list[torch.Tensor]  # V × (L_v, 2) pixel centres (u, v) of line pixels
@@ -93,11 +96,20 @@ class ViewTargets:
         return int(self.R.shape[0])
 
 
+def _pad(a: np.ndarray, H: int, W: int) -> np.ndarray:
+    """``a (h, w)`` padded with zeros (False) at the bottom and right to ``(H, W)``; pixel coordinates and so
+    each camera's intrinsics stay valid."""
+    if a.shape == (H, W):
+        return a
+    return np.pad(a, ((0, H - a.shape[0]), (0, W - a.shape[1])))
+
+
 def build_targets(scene: Scene, device: str = "cpu", exclude: list[np.ndarray] | None = None) -> ViewTargets:
     """Targets of a (working-size) scene; ``exclude`` masks out line pixels already drawn (silhouettes)."""
     cams = scene.cameras
-    H, W = scene.images[0].shape[:2]
-    lines, dists, pix, bpix = [], [], [], []
+    H = max(img.shape[0] for img in scene.images)
+    W = max(img.shape[1] for img in scene.images)
+    lines, dists, pix, bpix, valid, masks = [], [], [], [], [], []
     for k, img in enumerate(scene.images):
         m = scene.masks[k] if scene.masks is not None else None
         lm = line_map(img, m)
@@ -105,7 +117,10 @@ def build_targets(scene: Scene, device: str = "cpu", exclude: list[np.ndarray] |
         use = lm & ~exclude[k] if exclude is not None else lm
         if not use.any():
             use = lm
-        dists.append(ndimage.distance_transform_edt(~use).astype(np.float32))
+        dists.append(ndimage.distance_transform_edt(~_pad(use, H, W)).astype(np.float32))
+        valid.append(_pad(np.ones(img.shape[:2], bool), H, W))
+        if m is not None:
+            masks.append(_pad(m, H, W))
         vv, uu = np.nonzero(use)
         pix.append(torch.tensor(np.stack([uu + 0.5, vv + 0.5], 1), dtype=torch.float32, device=device))
         if m is not None:
@@ -116,7 +131,8 @@ def build_targets(scene: Scene, device: str = "cpu", exclude: list[np.ndarray] |
         R=torch.tensor(np.stack([c.R for c in cams]), **f32),
         t=torch.tensor(np.stack([c.t for c in cams]), **f32),
         K=torch.tensor(np.stack([c.K for c in cams]), **f32),
-        masks=torch.tensor(np.stack(scene.masks), **f32) if scene.masks is not None else None,
+        masks=torch.tensor(np.stack(masks), **f32) if scene.masks is not None else None,
+        valid=torch.tensor(np.stack(valid), **f32),
         lines=lines,
         line_dist=torch.tensor(np.stack(dists), **f32),
         line_pixels=pix,

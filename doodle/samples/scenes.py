@@ -127,6 +127,9 @@ def write_sample(name: str, out_dir: str | os.PathLike, n_train: int = N_TRAIN, 
     prims = SCENES[name]()
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes a private (0700) folder; the result is an ordinary one
     try:
         for split, n in (("train", n_train), ("test", n_test)):
             (tmp / split).mkdir()

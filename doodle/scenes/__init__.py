@@ -27,8 +27,11 @@ def detect_format(root: str | Path) -> str:
         return "colmap"
     from .photos import photo_files
 
-    if len(photo_files(root)) >= 3:
+    photos = photo_files(root)
+    if len(photos) >= 3:
         return "photos"
+    if photos:
+        raise SceneError(f"{root}: structure-from-motion needs at least 3 photos, found {len(photos)}")
     raise SceneError(f"{root}: no transforms_train.json, transforms.json, COLMAP model or photos found")
 
 
@@ -49,8 +52,15 @@ def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -
 def load_scene_at_size(root: str | Path, split: str = "train", size: int | None = None) -> Scene:
     """Load a scene with images downscaled so the larger side is about ``size`` px (never enlarged);
     saves memory and time for large photos (Lego: 100 × 800² → 256²)."""
-    if size is None or detect_format(root) == "photos":
+    if size is None:
         return load_scene(root, split)
+    fmt = detect_format(root)
+    if fmt == "photos":
+        from .photos import load_photos
+
+        return load_photos(root, size=size)
+    if fmt == "colmap":
+        return load_colmap(root, size=size)
     cams = load_cameras(root, split)
     largest = max(max(c.width, c.height) for c in cams)
     return load_scene(root, split, downscale=max(1.0, largest / size))

@@ -1,8 +1,10 @@
 """COLMAP models through pycolmap: ``sparse/0`` (binary or text) + image folder, optional ``masks/``.
 
 COLMAP poses are already world-to-camera in the OpenCV convention, so no axis conversion happens here.
-Lens distortion is ignored (the pinhole part of the model is used): doodle's strokes are far coarser
-than the distortion of the cameras COLMAP estimates for ordinary photos.
+Lens distortion (SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, …) is removed on load: every image is resampled
+to the pinhole camera with the model's focal lengths and principal point, through pycolmap's own model, so
+that projections are exact. Fisheye models are refused. Images are read as COLMAP read them: raw pixels,
+EXIF orientation not applied (an image whose size only matches its camera once EXIF-rotated is rotated).
 """
 
 from __future__ import annotations
@@ -15,10 +17,11 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import SceneError
-from .images import read_image, read_mask
+from .images import read_image, read_mask, scene_path
 from .scene import Scene, estimate_frame
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
+PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
 
 
 @contextmanager
@@ -45,7 +48,7 @@ def find_model_dir(root: Path) -> Path | None:
 
 
 def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_dir: str | Path | None = None,
-                downscale: float = 1.0) -> Scene:
+                downscale: float = 1.0, size: int | None = None) -> Scene:
     """Load a COLMAP reconstruction.
 
     Args:
@@ -54,6 +57,8 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         masks_dir: optional masks (``NAME.png`` or ``NAME`` + ``.png``, COLMAP's convention); default
             ``root/masks`` when it exists.
         downscale: divide the image size by this factor.
+        size: instead, downscale each image so its larger side is about ``size`` px (never enlarged);
+            views of different sizes get their own factors.
     """
     import pycolmap
 
@@ -61,6 +66,7 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     model_dir = find_model_dir(root)
     if model_dir is None:
         raise SceneError(f"{root}: no COLMAP model (cameras.bin/.txt) in it or in sparse/0")
+    _check_binary_counts(model_dir)
     try:
         rec = pycolmap.Reconstruction(str(model_dir))
     except Exception as exc:  # pycolmap raises bare RuntimeErrors/ValueErrors for unreadable models
@@ -79,10 +85,15 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         pose = im.cam_from_world()
         R = np.asarray(pose.rotation.matrix(), dtype=np.float64)
         t = np.asarray(pose.translation, dtype=np.float64)
+        if size is not None:
+            downscale = max(1.0, max(cam.width, cam.height) / size)
         w, h = max(1, round(cam.width / downscale)), max(1, round(cam.height / downscale))
         sx, sy = w / cam.width, h / cam.height
-        path = images_dir / im.name
-        rgb, mask = read_image(path, (w, h))
+        path = scene_path(images_dir, im.name, f"{model_dir}: image name")
+        _check_model(cam, model_dir)
+        rgb, mask = read_image(path, (w, h), expect=(cam.width, cam.height))
+        if cam.model.name not in PINHOLE_MODELS:
+            rgb, mask = undistort(rgb, mask, cam, (w, h))
         if masks_dir is not None:
             cands = [Path(masks_dir) / (im.name + ".png"), Path(masks_dir) / im.name,
                      Path(masks_dir) / (Path(im.name).stem + ".png")]
@@ -90,6 +101,8 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
             if found is None:
                 raise SceneError(f"{masks_dir}: no mask for image {im.name}")
             mask = read_mask(found, (w, h))
+            if cam.model.name not in PINHOLE_MODELS:
+                mask = undistort(None, mask, cam, (w, h))[1]
         cameras.append(Camera(cam.focal_length_x * sx, cam.focal_length_y * sy, cam.principal_point_x * sx,
                               cam.principal_point_y * sy, w, h, R, t, name=Path(im.name).stem))
         images.append(rgb)
@@ -97,5 +110,69 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         paths.append(path)
     pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
     has_masks = all(m is not None for m in masks)
-    return Scene(cameras, images, estimate_frame(cameras, points=pts if len(pts) else None),
+    c0 = rec.camera(rec.image(ids[0]).camera_id)
+    frame = estimate_frame(cameras, points=pts if len(pts) else None, full_size=(c0.width, c0.height))
+    return Scene(cameras, images, frame,
                  masks if has_masks else None, pts if len(pts) else None, str(root), paths)
+
+
+# Smallest record of each binary model file (COLMAP's layout): a count that cannot fit in the file means a
+# corrupt model, which pycolmap would otherwise try to read (one such file made it loop for ever).
+_MIN_RECORD = {"cameras.bin": 24, "images.bin": 4 + 32 + 24 + 4 + 1 + 8, "points3D.bin": 8 + 24 + 3 + 8 + 8}
+
+
+def _check_binary_counts(model_dir: Path) -> None:
+    import struct
+
+    for name, size in _MIN_RECORD.items():
+        path = model_dir / name
+        if not path.exists():
+            continue
+        if not path.is_file():
+            raise SceneError(f"{path}: not a regular file")
+        total = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(8)
+        if len(head) < 8:
+            raise SceneError(f"{path}: corrupt COLMAP model (file too short)")
+        (count,) = struct.unpack("<Q", head)
+        if count * size > total - 8:
+            raise SceneError(f"{path}: corrupt COLMAP model (claims {count} records, the file holds at most "
+                             f"{(total - 8) // size})")
+
+
+def _check_model(cam, model_dir: Path) -> None:
+    """Refuse camera models doodle cannot turn into a pinhole view."""
+    if cam.is_perspective_fisheye() if hasattr(cam, "is_perspective_fisheye") else "FISHEYE" in cam.model.name:
+        raise SceneError(f"{model_dir}: camera model {cam.model.name} (fisheye) is not supported; "
+                         "undistort the images first (colmap image_undistorter) and give that model")
+    if cam.model.name not in PINHOLE_MODELS and not cam.is_perspective():
+        raise SceneError(f"{model_dir}: camera model {cam.model.name} is not supported")
+
+
+def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[int, int]
+              ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Resample an image (and mask) taken through COLMAP camera ``cam`` to its pinhole part.
+
+    ``rgb (h, w, 3)`` and ``mask (h, w)`` are the distorted image already resized to ``size = (w, h)``; the
+    result has the same size and shows what a pinhole camera with ``cam``'s focal lengths and principal point
+    (scaled to ``size``) sees. Pixels that come from outside the photo are white (and not object).
+    """
+    from scipy import ndimage
+
+    w, h = size
+    sx, sy = w / cam.width, h / cam.height
+    fx, fy = cam.focal_length_x * sx, cam.focal_length_y * sy
+    cx, cy = cam.principal_point_x * sx, cam.principal_point_y * sy
+    uu, vv = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    rays = np.stack([(uu.ravel() - cx) / fx, (vv.ravel() - cy) / fy, np.ones(uu.size)], 1)
+    src = np.asarray(cam.img_from_cam(rays, False), dtype=np.float64).reshape(h, w, 2)
+    coords = [src[..., 1] * sy - 0.5, src[..., 0] * sx - 0.5]  # (row, col) in the resized distorted image
+    out_rgb = out_mask = None
+    if rgb is not None:
+        out_rgb = np.stack([ndimage.map_coordinates(rgb[..., c].astype(np.float32), coords, order=1, cval=255.0)
+                            for c in range(rgb.shape[2])], -1)
+        out_rgb = np.clip(out_rgb + 0.5, 0, 255).astype(np.uint8)
+    if mask is not None:
+        out_mask = ndimage.map_coordinates(mask.astype(np.float32), coords, order=1, cval=0.0) > 0.5
+    return out_rgb, out_mask

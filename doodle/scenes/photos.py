@@ -1,5 +1,10 @@
 """Plain photos: structure-from-motion with pycolmap (SIFT, exhaustive matching, incremental mapping),
-then the COLMAP parser. The model is cached in ``PHOTOS/.doodle-sfm`` and reused."""
+then the COLMAP parser. The model is cached in ``PHOTOS/.doodle-sfm`` and reused.
+
+Phone photos often store portrait shots as landscape pixels plus an EXIF orientation tag, which COLMAP
+ignores. When any photo has such a tag, upright copies are written to ``PHOTOS/.doodle-sfm/images`` and
+posed instead, so that cameras, images and sketches are all upright.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +12,14 @@ import shutil
 from pathlib import Path
 from typing import Callable
 
-from PIL import Image
+from PIL import ImageOps
 
 from ..errors import SceneError
 from .colmap import load_colmap, quiet_pycolmap
+from .images import open_image
 from .scene import Scene
 
+ORIENTATION = 0x0112  # the EXIF orientation tag
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
 
 
@@ -42,22 +49,37 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
     db = work / "database.db"
     # Photos of one size are taken to come from one camera: one shared set of intrinsics is far better
     # constrained (on 34 Lego photos, camera centres 1 % off instead of 3–6 % with a camera per photo).
-    sizes = set()
+    sizes, rotated = set(), []
     for p in photos:
         try:
-            with Image.open(p) as im:
-                sizes.add(im.size)
-        except OSError:
+            with open_image(p) as im:
+                if im.getexif().get(ORIENTATION, 1) not in (0, 1):
+                    rotated.append(p)
+                    sizes.add(ImageOps.exif_transpose(im).size)
+                else:
+                    sizes.add(im.size)
+        except (OSError, SyntaxError):
             raise SceneError(f"{p}: not a readable image") from None
+    image_dir = root
+    if rotated:
+        image_dir = work / "images"
+        image_dir.mkdir()
+        log(f"structure-from-motion: {len(rotated)} photos carry an EXIF rotation; posing upright copies")
+        for p in photos:
+            if p in rotated:
+                with open_image(p) as im:
+                    ImageOps.exif_transpose(im).convert("RGB").save(image_dir / p.name, quality=95)
+            else:
+                shutil.copyfile(p, image_dir / p.name)
     shared = len(sizes) == 1
     log(f"structure-from-motion (pycolmap): {len(photos)} photos, {'one shared camera' if shared else 'a camera per photo'}; "
         "extracting and matching SIFT features")
     try:
         with quiet_pycolmap():
             mode = pycolmap.CameraMode.SINGLE if shared else pycolmap.CameraMode.AUTO
-            pycolmap.extract_features(db, root, image_names=[p.name for p in photos], camera_mode=mode)
+            pycolmap.extract_features(db, image_dir, image_names=[p.name for p in photos], camera_mode=mode)
             pycolmap.match_exhaustive(db)
-            recs = pycolmap.incremental_mapping(db, root, work / "sparse")
+            recs = pycolmap.incremental_mapping(db, image_dir, work / "sparse")
     except Exception as exc:  # pycolmap reports failures as RuntimeError/ValueError with long texts
         raise SceneError(f"{root}: structure-from-motion failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
     best = max(recs.values(), key=lambda r: r.num_reg_images(), default=None)
@@ -72,9 +94,12 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
     return model
 
 
-def load_photos(root: str | Path, downscale: float = 1.0, log: Callable[[str], None] = print) -> Scene:
+def load_photos(root: str | Path, downscale: float = 1.0, log: Callable[[str], None] = print,
+                size: int | None = None) -> Scene:
     """Run (or reuse) SfM on a folder of photos and load the result; ``root/masks`` is used when present."""
     root = Path(root)
     model = run_sfm(root, log)
-    return load_colmap(model, images_dir=root, masks_dir=root / "masks" if (root / "masks").is_dir() else None,
-                       downscale=downscale)
+    upright = root / ".doodle-sfm" / "images"
+    scene = load_colmap(model, images_dir=upright if upright.is_dir() else root,
+                        masks_dir=root / "masks" if (root / "masks").is_dir() else None, downscale=downscale, size=size)
+    return scene

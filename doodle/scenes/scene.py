@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cameras import Camera, azimuth_elevation
+from ..cameras import Camera, azimuth_elevation, output_size
 from ..strokes.model import DefaultCamera, SceneFrame
 
 
@@ -55,19 +55,33 @@ def closest_point_to_axes(cameras: list[Camera]) -> np.ndarray:
     return np.linalg.solve(A, b)
 
 
-def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: np.ndarray | None = None) -> SceneFrame:
-    """Scene frame from camera poses: ``up`` is the mean camera up (−y) unless given; ``center`` is the point
+def camera_up(cameras: list[Camera]) -> np.ndarray:
+    """The world's up as the photographer held the camera: the mean of the cameras' image-up axes, where
+    each camera contributes the image axis (up, down, left or right) nearest the consensus, so that photos
+    taken in portrait (rolled by 90°) or upside down agree with the landscape ones."""
+    axes = np.stack([np.stack([-c.R[1], c.R[1], c.R[0], -c.R[0]]) for c in cameras])  # (N, 4, 3)
+    up = axes[:, 0].mean(axis=0)
+    for _ in range(3):
+        if np.linalg.norm(up) < 1e-6:
+            return np.array([0.0, 0.0, 1.0])
+        pick = np.argmax(axes @ up, axis=1)
+        up = axes[np.arange(len(cameras)), pick].mean(axis=0)
+    return up / max(np.linalg.norm(up), 1e-12)
+
+
+def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: np.ndarray | None = None,
+                   full_size: tuple[float, float] | None = None) -> SceneFrame:
+    """Scene frame from camera poses: ``up`` is :func:`camera_up` unless given; ``center`` is the point
     nearest all optical axes; ``radius`` the largest sphere around it that every camera sees whole (its
     median), shrunk to the 98th percentile of point distances when SfM points are given.
     The default orbit camera takes the median distance, field of view and elevation, and view 0 the first
-    camera's azimuth.
+    camera's azimuth; its image size is the first photo's ``full_size`` (before any downscaling; default: the
+    first camera's) with the long side capped at 1024 px.
     """
     if not cameras:
         raise ValueError("no cameras")
     if up is None:
-        up = np.mean([-c.R[1] for c in cameras], axis=0)
-        if np.linalg.norm(up) < 1e-6:
-            up = np.array([0.0, 0.0, 1.0])
+        up = camera_up(cameras)
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
     center = closest_point_to_axes(cameras)
     dists = np.array([np.linalg.norm(c.center - center) for c in cameras])
@@ -78,10 +92,34 @@ def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: 
     frame = SceneFrame(up=up, center=center, radius=radius)
     angles = [azimuth_elevation(c.center, frame) for c in cameras]
     c0 = cameras[0]
+    out_w, out_h = output_size(*(full_size or (c0.width, c0.height)))
     frame.camera = DefaultCamera(
         fov_deg=float(np.median([c.fov_deg for c in cameras])),
         distance=float(np.median(dists)),
         elevation_deg=float(np.clip(np.median([a[1] for a in angles]), -80, 80)),
-        width=int(c0.width), height=int(c0.height), azimuth_deg=float(angles[0][0]),
+        width=out_w, height=out_h, azimuth_deg=float(angles[0][0]),
     )
     return frame
+
+
+def dominant_plane(points: np.ndarray, radius: float, iterations: int = 400, min_share: float = 0.2,
+                   seed: int = 0) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """The plane holding most points within ``1 %`` of ``radius`` (RANSAC): ``(unit normal, offset, inliers)``
+    with ``normal · p = offset`` on it, or ``None`` when no plane holds ``min_share`` of the points."""
+    if len(points) < 30:
+        return None
+    rng = np.random.default_rng(seed)
+    tol = 0.01 * radius
+    best, best_n, best_d = None, 0, 0.0
+    for _ in range(iterations):
+        a, b, c = points[rng.choice(len(points), 3, replace=False)]
+        n = np.cross(b - a, c - a)
+        if np.linalg.norm(n) < 1e-12:
+            continue
+        n /= np.linalg.norm(n)
+        count = int((np.abs(points @ n - a @ n) < tol).sum())
+        if count > best_n:
+            best, best_n, best_d = n, count, float(a @ n)
+    if best is None or best_n < min_share * len(points):
+        return None
+    return best, best_d, np.abs(points @ best - best_d) < tol

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import SceneError
-from .images import read_image, read_mask
+from .images import image_size, read_image, read_mask, scene_path
 from .scene import Scene, estimate_frame
 
 GL_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -52,8 +52,8 @@ def _pose(frame: Any, path: Path, i: int) -> tuple[np.ndarray, np.ndarray]:
     return R, -R @ c2w_cv[:3, 3]
 
 
-def _image_path(root: Path, file_path: str) -> Path:
-    p = root / file_path
+def _image_path(root: Path, file_path: str, where: str = "") -> Path:
+    p = scene_path(root, file_path, where or str(root))
     if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".exr", ".webp"):
         return p
     for ext in (".png", ".jpg", ".jpeg"):  # NeRF-synthetic omits the extension
@@ -81,16 +81,10 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
     for i, fr in enumerate(data["frames"]):
         if not isinstance(fr, dict) or not isinstance(fr.get("file_path"), str):
             raise SceneError(f"{path}: frames[{i}].file_path missing")
-        img_path = _image_path(root, fr["file_path"])
+        img_path = _image_path(root, fr["file_path"], f"{path}: frames[{i}].file_path")
         R, t = _pose(fr, path, i)
         if i == 0 and not with_images:
-            from PIL import Image
-
-            try:
-                with Image.open(img_path) as im:
-                    w0, h0 = im.size
-            except OSError as exc:
-                raise SceneError(f"{img_path}: cannot read image ({exc})") from None
+            w0, h0 = image_size(img_path)
             size = (max(1, round(w0 / downscale)), max(1, round(h0 / downscale)))
         if not with_images:
             w, h = size
@@ -98,12 +92,10 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
                                   w, h, R, t, name=img_path.stem))
             paths.append(img_path)
             continue
-        if i == 0:  # the first image fixes the working size of all of them
-            rgb, mask = read_image(img_path)
-            h0, w0 = rgb.shape[:2]
+        if i == 0:  # the first image fixes the working size of all of them (read from its header)
+            w0, h0 = image_size(img_path)
             size = (max(1, round(w0 / downscale)), max(1, round(h0 / downscale)))
-            if size != (w0, h0):
-                rgb, mask = read_image(img_path, size)
+            rgb, mask = read_image(img_path, size)
         else:
             rgb, mask = read_image(img_path, size)
         w, h = size
@@ -112,7 +104,7 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
         images.append(rgb)
         masks.append(mask if mask is not None else np.ones((h, w), bool))
         paths.append(img_path)
-    frame = estimate_frame(cameras, up=np.array([0.0, 0.0, 1.0]))
+    frame = estimate_frame(cameras, up=np.array([0.0, 0.0, 1.0]), full_size=(w0, h0))
     return Scene(cameras, images, frame, masks if with_images else None, None, str(root), paths)
 
 
@@ -137,17 +129,20 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
             intr[key] = float(v)
         if fr.get("camera_model", data.get("camera_model", "OPENCV")) not in ("OPENCV", "PINHOLE", "SIMPLE_PINHOLE"):
             raise SceneError(f"{path}: frames[{i}]: only pinhole camera models are supported")
-        img_path = _image_path(root, fr["file_path"])
+        img_path = _image_path(root, fr["file_path"], f"{path}: frames[{i}].file_path")
         R, t = _pose(fr, path, i)
         w, h = max(1, round(intr["w"] / downscale)), max(1, round(intr["h"] / downscale))
         sx, sy = w / intr["w"], h / intr["h"]
         rgb, mask = read_image(img_path, (w, h))
         if isinstance(fr.get("mask_path"), str):
-            mask = read_mask(root / fr["mask_path"], (w, h))
+            mask = read_mask(scene_path(root, fr["mask_path"], f"{path}: frames[{i}].mask_path"), (w, h))
         any_mask |= mask is not None
         cameras.append(Camera(intr["fl_x"] * sx, intr["fl_y"] * sy, intr["cx"] * sx, intr["cy"] * sy, w, h, R, t,
                               name=img_path.stem))
         images.append(rgb)
         masks.append(mask if mask is not None else np.ones((h, w), bool))
         paths.append(img_path)
-    return Scene(cameras, images, estimate_frame(cameras), masks if any_mask else None, None, str(root), paths)
+    f0 = data["frames"][0]
+    full = (float(f0.get("w", data.get("w"))), float(f0.get("h", data.get("h"))))
+    return Scene(cameras, images, estimate_frame(cameras, full_size=full), masks if any_mask else None, None,
+                 str(root), paths)

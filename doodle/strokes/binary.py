@@ -49,9 +49,11 @@ _SQRT_HALF = math.sqrt(0.5)
 
 def _bits_for(extent: float, step_limit: float) -> tuple[int, float]:
     """Smallest bit count (8..32) whose step over ``extent`` is ≤ ``step_limit``; returns (bits, step)."""
+    if not (step_limit > 0 and math.isfinite(step_limit) and math.isfinite(extent)):
+        raise StrokeFileError(f"cannot quantise an extent of {extent:g} in steps of {step_limit:g}")
     levels = max(extent / step_limit, 1.0)
     bits = int(min(max(math.ceil(math.log2(levels + 1)), 8), 32))
-    step = extent / (2**bits - 1) if extent > 0 else 1.0
+    step = extent / (2**bits - 1) if extent > 0 else step_limit
     return bits, step
 
 
@@ -110,6 +112,13 @@ def encode(strokes: StrokeSet) -> bytes:
     pos_bits, pos_step = _bits_for(float((positions.max(axis=0) - origin).max()) if len(positions) else 0.0, tol)
     max_scale = float(sq.scale.max()) if m else 0.0
     scale_bits, scale_step = _bits_for(max_scale, tol)
+    if max(pos_step, scale_step if m else 0.0) > tol * (1 + 1e-9):
+        # 32 bits are not enough: the strokes span over 10⁶ radii, or a scale would round to zero
+        raise StrokeFileError(f"strokes span {max(pos_step, scale_step) * 2**32:.3g} scene units, too much for the "
+                              f"binary format's 32-bit steps at radius {f.radius:.3g}; keep this file as JSON")
+    if m and float(sq.scale.min()) < scale_step:
+        raise StrokeFileError(f"a superquadric scale ({float(sq.scale.min()):.3g}) is below the binary format's step "
+                              f"({scale_step:.3g}); keep this file as JSON")
 
     bits = [_pack(_quantise(positions, origin, pos_step, pos_bits), pos_bits)]
     if m:
@@ -148,6 +157,17 @@ def encode(strokes: StrokeSet) -> bytes:
         struct.pack("<H", len(trailer)),
         trailer,
     ])
+
+
+MAX_TRAILER_BYTES = 1 << 20  # inflated provenance: a 64 KB trailer must not become gigabytes
+
+
+def _inflate(data: bytes) -> bytes:
+    z = zlib.decompressobj()
+    out = z.decompress(data, MAX_TRAILER_BYTES)
+    if z.unconsumed_tail:
+        raise StrokeFileError(f"trailer inflates beyond {MAX_TRAILER_BYTES} bytes")
+    return out
 
 
 def decode(data: bytes) -> StrokeSet:
@@ -190,7 +210,7 @@ def _decode(data: bytes) -> StrokeSet:
     tstart = start + stream_len + 2
     if len(data) != tstart + tlen:
         raise StrokeFileError(f"binary stroke data has {len(data) - tstart - tlen:+d} bytes beyond its trailer")
-    meta = json.loads(zlib.decompress(data[tstart:]).decode("utf-8"), parse_constant=_reject) if tlen else {}
+    meta = json.loads(_inflate(data[tstart:]).decode("utf-8"), parse_constant=_reject) if tlen else {}
     if not isinstance(meta, dict):
         raise StrokeFileError("trailer: expected an object")
 

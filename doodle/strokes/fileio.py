@@ -25,6 +25,11 @@ MAX_CURVES = 65535
 MAX_SUPERQUADRICS = 255
 MAX_FILE_BYTES = 64 * 1024 * 1024
 SHAPE_RANGE = (0.1, 1.9)
+#: Largest coordinate (scene units) and radius the readers accept: far beyond any capture, far below what
+#: float32 drawing and the binary format's 32-bit quantisation can no longer handle.
+MAX_COORD = 1e6
+MIN_RADIUS = 1e-6
+MIN_CANVAS, MAX_CANVAS = 16, 16384
 _QUAT_TOL = 1e-3
 
 _KNOWN = {
@@ -45,15 +50,18 @@ def _obj(value: Any, name: str) -> dict:
     return value
 
 
-def _number(value: Any, name: str, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False) -> float:
+def _number(value: Any, name: str, lo: float = -MAX_COORD, hi: float = MAX_COORD, lo_open: bool = False,
+            hi_open: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _Invalid(f"{name}: expected a number, got {type(value).__name__}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        raise _Invalid(f"{name}: number too large") from None
     if not math.isfinite(v):
-        raise _Invalid(f"{name}: must be finite, got {value}")
-    if v < lo or v > hi or (lo_open and v == lo):
-        bracket = "(" if lo_open else "["
-        raise _Invalid(f"{name}: {v:g} outside {bracket}{lo:g}, {hi:g}]")
+        raise _Invalid(f"{name}: must be finite, got {v}")
+    if v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi):
+        raise _Invalid(f"{name}: {v:g} outside {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}")
     return v
 
 
@@ -61,7 +69,7 @@ def _int(value: Any, name: str, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise _Invalid(f"{name}: expected an integer, got {type(value).__name__}")
     if not lo <= value <= hi:
-        raise _Invalid(f"{name}: {value} outside [{lo}, {hi}]")
+        raise _Invalid(f"{name}: {value if abs(value) < 10**12 else 'a huge number'} outside [{lo}, {hi}]")
     return value
 
 
@@ -109,15 +117,17 @@ def _parse(data: Any) -> StrokeSet:
     camera = DefaultCamera(
         fov_deg=_number(_required(cam, "fov_deg", "scene.camera."), "scene.camera.fov_deg", 0.0, 179.0, lo_open=True),
         distance=_number(_required(cam, "distance", "scene.camera."), "scene.camera.distance", 0.0, lo_open=True),
-        elevation_deg=_number(_required(cam, "elevation_deg", "scene.camera."), "scene.camera.elevation_deg", -90.0, 90.0),
-        width=_int(_required(cam, "width", "scene.camera."), "scene.camera.width", 1, 16384),
-        height=_int(_required(cam, "height", "scene.camera."), "scene.camera.height", 1, 16384),
-        azimuth_deg=_number(cam.get("azimuth_deg", 0.0), "scene.camera.azimuth_deg"),
+        # an orbit straight above or below has no azimuth: the drawing needs the open interval
+        elevation_deg=_number(_required(cam, "elevation_deg", "scene.camera."), "scene.camera.elevation_deg",
+                              -90.0, 90.0, lo_open=True, hi_open=True),
+        width=_int(_required(cam, "width", "scene.camera."), "scene.camera.width", MIN_CANVAS, MAX_CANVAS),
+        height=_int(_required(cam, "height", "scene.camera."), "scene.camera.height", MIN_CANVAS, MAX_CANVAS),
+        azimuth_deg=_number(cam.get("azimuth_deg", 0.0), "scene.camera.azimuth_deg", -3600.0, 3600.0),
     )
     frame = SceneFrame(
         up=up / np.linalg.norm(up),
         center=_vector(_required(scene, "center", "scene."), 3, "scene.center"),
-        radius=_number(_required(scene, "radius", "scene."), "scene.radius", 0.0, lo_open=True),
+        radius=_number(_required(scene, "radius", "scene."), "scene.radius", MIN_RADIUS),
         camera=camera,
     )
 

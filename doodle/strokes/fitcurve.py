@@ -154,6 +154,8 @@ def _split(s: np.ndarray, e: np.ndarray, owner: np.ndarray, ratio: np.ndarray, w
     power of its length), which takes two or three rounds where halving would take eight."""
     if len(s) == 0:
         return s, e, owner
+    # a NaN or infinite error (degenerate input) must not become a count of 2⁶³ pieces
+    ratio = np.nan_to_num(np.asarray(ratio, dtype=np.float64), nan=16.0, posinf=1e12, neginf=1.0)
     k = np.clip(np.ceil(ratio ** 0.25), 2, e - s).astype(int)
     halve = k == 2
     cut_seg = np.r_[np.flatnonzero(halve), np.repeat(np.flatnonzero(~halve), k[~halve] - 1)]

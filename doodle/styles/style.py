@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import re
 import sys
 from dataclasses import dataclass, field
@@ -95,6 +96,19 @@ _RANGES = {
 _CHOICES = {"blend": ("normal", "multiply"), "linecap": ("round", "butt", "square"), "hidden_mode": ("", "hide", "dash", "show")}
 
 
+def _short(value: Any) -> str:
+    """``repr`` cut to 40 characters: error messages stay one readable line whatever the file holds."""
+    text = repr(value) if not (isinstance(value, int) and abs(value) > 10**15) else "a huge integer"
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _finite(v: Any) -> bool:
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
 def _check(value: Any, default: Any, name: str, source: str) -> Any:
     key = name.rsplit(".", 1)[-1]
     where = f"{source}: {name}"
@@ -102,28 +116,29 @@ def _check(value: Any, default: Any, name: str, source: str) -> Any:
         raise AssertionError
     if isinstance(default, int):
         if isinstance(value, bool) or not isinstance(value, int):
-            raise DoodleError(f"{where}: expected an integer, got {value!r}")
+            raise DoodleError(f"{where}: expected an integer, got {_short(value)}")
     elif isinstance(default, float):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise DoodleError(f"{where}: expected a number, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
+            raise DoodleError(f"{where}: expected a finite number, got {_short(value)}")
         value = float(value)
     elif isinstance(default, tuple):
-        if not isinstance(value, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in value):
-            raise DoodleError(f"{where}: expected a list of positive numbers, got {value!r}")
+        if (not isinstance(value, list) or len(value) > 64
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and _finite(v) and v > 0 for v in value)):
+            raise DoodleError(f"{where}: expected a list of up to 64 positive numbers, got {_short(value)}")
         return tuple(float(v) for v in value)
     elif isinstance(default, str):
         if not isinstance(value, str):
-            raise DoodleError(f"{where}: expected a string, got {value!r}")
+            raise DoodleError(f"{where}: expected a string, got {_short(value)}")
     if key in _RANGES:
         lo, hi = _RANGES[key]
         if not lo <= value <= hi:
-            raise DoodleError(f"{where}: {value} outside [{lo}, {hi}]")
+            raise DoodleError(f"{where}: {_short(value)} outside [{lo}, {hi}]")
     if key in _CHOICES and value not in _CHOICES[key]:
-        raise DoodleError(f"{where}: {value!r} is not one of {', '.join(repr(c) for c in _CHOICES[key])}")
+        raise DoodleError(f"{where}: {_short(value)} is not one of {', '.join(repr(c) for c in _CHOICES[key])}")
     if key == "color" and not _HEX.match(value):
-        raise DoodleError(f"{where}: expected a hex colour like #1a2b3c, got {value!r}")
+        raise DoodleError(f"{where}: expected a hex colour like #1a2b3c, got {_short(value)}")
     if key == "background" and value != "none" and not _HEX.match(value):
-        raise DoodleError(f"{where}: expected a hex colour like #ffffff or 'none', got {value!r}")
+        raise DoodleError(f"{where}: expected a hex colour like #ffffff or 'none', got {_short(value)}")
     return value
 
 
@@ -173,6 +188,9 @@ def _builtin_style(name: str) -> Style:
     return style_from_dict(tomllib.loads(res.read_text(encoding="utf-8")), f"built-in style {name}")
 
 
+MAX_STYLE_BYTES = 1 << 20
+
+
 def load_style(name_or_path: str | Path) -> Style:
     """A built-in style by name, or a ``.toml`` / ``.json`` style file."""
     text_name = str(name_or_path)
@@ -183,12 +201,20 @@ def load_style(name_or_path: str | Path) -> Style:
         if path.suffix.lower() in (".toml", ".json"):
             raise DoodleError(f"{path}: style file not found")
         raise DoodleError(f"unknown style {text_name!r} (built-in: {', '.join(builtin_names())}; or a .toml/.json file)")
+    if not path.is_file():
+        raise DoodleError(f"{path}: not a regular file")
     try:
+        if path.stat().st_size > MAX_STYLE_BYTES:
+            raise DoodleError(f"{path}: style file larger than {MAX_STYLE_BYTES} bytes")
         text = path.read_text(encoding="utf-8")
         data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (OSError, UnicodeDecodeError) as exc:
-        raise DoodleError(f"{path}: cannot read style ({exc})") from None
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
-        raise DoodleError(f"{path}: not valid {path.suffix[1:].upper()} ({str(exc).splitlines()[0]})") from None
+        raise DoodleError(f"{path}: cannot read style ({getattr(exc, 'strerror', None) or exc})") from None
+    except (tomllib.TOMLDecodeError, ValueError) as exc:  # JSONDecodeError is a ValueError
+        raise DoodleError(f"{path}: not valid {path.suffix[1:].upper()} ({str(exc).splitlines()[0][:80]})") from None
+    except RecursionError:
+        raise DoodleError(f"{path}: nested too deeply") from None
+    if not isinstance(data, dict):
+        raise DoodleError(f"{path}: a style is a table of settings, not a {type(data).__name__}")
     data.setdefault("name", path.stem)
     return style_from_dict(data, str(path))

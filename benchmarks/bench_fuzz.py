@@ -1,0 +1,42 @@
+"""Long fuzz run of every reader: the property tests of ``tests/test_hardening.py`` with many more inputs.
+
+Each reader (stroke JSON, stroke binary, style, convert round trip) gets ``--examples`` generated inputs
+(default 10,000) under a 10 s per-input limit; prints the inputs tried, failures and the time per reader.
+A failure is any exception other than the reader's one-line error, or a hang.
+
+Run: ``python benchmarks/bench_fuzz.py [--examples 10000]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--examples", type=int, default=10_000)
+    args = ap.parse_args()
+    env = {**os.environ, "DOODLE_FUZZ_EXAMPLES": str(args.examples)}
+    for test in ("test_fuzz_stroke_json_reader", "test_fuzz_binary_reader", "test_fuzz_style_reader",
+                 "test_fuzz_convert_round_trip"):
+        t = time.perf_counter()
+        p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--timeout", "36000",
+                            "--hypothesis-show-statistics", f"tests/test_hardening.py::{test}"],
+                           cwd=ROOT, env=env, capture_output=True, text=True)
+        stats = re.search(r"(\d+) passing examples?, (\d+) failing examples?, (\d+) invalid", p.stdout)
+        tried = f"{stats.group(1)} passing, {stats.group(2)} failing" if stats else "?"
+        print(f"{test:<32} {tried:<32} {'ok' if p.returncode == 0 else 'FAILED'}  {time.perf_counter() - t:.0f} s")
+        if p.returncode != 0:
+            print(p.stdout[-3000:])
+
+
+if __name__ == "__main__":
+    main()

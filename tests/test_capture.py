@@ -1,0 +1,156 @@
+"""Real captures: photos of mixed orientation (some EXIF-rotated), lens distortion, no masks, a textured
+floor and background: the generated phone capture of the chair, end to end."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+from doodle.cli import cli
+from doodle.errors import SceneError
+from doodle.samples.capture import write_capture
+from doodle.samples.raycast import render_rgba
+from doodle.samples.scenes import SCENES
+from doodle.scenes import load_colmap, load_scene
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory) -> Path:
+    return write_capture("chair", tmp_path_factory.mktemp("capture") / "chair", n=15, size=160)
+
+
+def test_capture_mixes_orientations_and_exif(capture):
+    sizes = {Image.open(p).size for p in (capture / "images").glob("*.jpg")}
+    assert sizes == {(160, 120), (120, 160)}
+    tags = [Image.open(p).getexif().get(0x0112) for p in sorted((capture / "images").glob("*.jpg"))]
+    assert 6 in tags
+    assert "SIMPLE_RADIAL" in (capture / "sparse/0/cameras.txt").read_text()
+
+
+def test_images_and_cameras_agree_after_undistortion(capture):
+    """Every loaded view, portrait or landscape, EXIF-tagged or not, undistorted: the true mask lands where
+    the pinhole camera sees the object."""
+    scene = load_colmap(capture, masks_dir=capture / "true_masks")
+    prims = SCENES["chair"]()
+    assert {(c.width, c.height) for c in scene.cameras} == {(160, 120), (120, 160)}
+    ious = [_iou(render_rgba(prims, c)[..., 3] > 127, m) for c, m in zip(scene.cameras, scene.masks)]
+    assert min(ious) > 0.85 and np.mean(ious) > 0.92, ious
+
+
+def test_undistort_moves_a_point_to_its_pinhole_projection():
+    import pycolmap
+
+    from doodle.scenes.colmap import undistort
+
+    cam = pycolmap.Camera.create_from_model_name(1, "OPENCV", 100.0, 120, 90)
+    cam.params = [100.0, 104.0, 61.0, 44.0, -0.2, 0.05, 0.001, -0.002]
+    p = np.array([[0.45, 0.3, 1.0]])  # near the corner, where distortion is large
+    ud, vd = cam.img_from_cam(p)[0]
+    img = np.full((90, 120, 3), 255, np.uint8)
+    yy, xx = np.mgrid[0:90, 0:120] + 0.5
+    img[(xx - ud) ** 2 + (yy - vd) ** 2 < 4] = 0
+    out, _ = undistort(img, None, cam, (120, 90))
+    dark = out[..., 0] < 128
+    v, u = np.nonzero(dark)
+    assert abs(u.mean() + 0.5 - (100.0 * 0.45 + 61.0)) < 0.5
+    assert abs(v.mean() + 0.5 - (104.0 * 0.3 + 44.0)) < 0.5
+    assert abs(ud - (100.0 * 0.45 + 61.0)) > 2  # the distortion was real (2.6 px here)
+
+
+def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path):
+    from doodle.fit.automask import with_masks
+
+    truth = load_colmap(capture, masks_dir=capture / "true_masks").masks
+    scene = load_colmap(capture)
+    assert scene.masks is None
+    found = with_masks(scene, "auto", tmp_path / "m", log=lambda m: None).masks
+    ious = [_iou(a, b) for a, b in zip(found, truth)]
+    assert np.mean(ious) > 0.85, ious
+    assert len(list((tmp_path / "m").glob("*.png"))) == len(scene)
+    # a mask folder round-trips through --masks DIR
+    again = with_masks(scene, tmp_path / "m", log=lambda m: None).masks
+    assert all(_iou(a, b) > 0.99 for a, b in zip(again, found))
+    assert with_masks(scene, "none", log=lambda m: None).masks is None
+
+
+def test_support_plane_is_removed():
+    from doodle.cameras import Camera, look_at
+    from doodle.fit.automask import remove_support_plane
+
+    rng = np.random.default_rng(0)
+    floor = np.c_[rng.uniform(-2, 2, (400, 2)), np.full(400, -1.0)]
+    obj = rng.normal(0, 0.3, (200, 3))
+    cams = []
+    for a in np.linspace(0, 2 * np.pi, 8, endpoint=False):
+        R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), 1.5]), np.zeros(3), np.array([0, 0, 1.0]))
+        cams.append(Camera(100, 100, 50, 50, 100, 100, R, t))
+    kept, removed = remove_support_plane(np.r_[floor, obj], cams, radius=1.0)
+    assert removed
+    assert (kept[:, 2] > -0.97).all() and len(kept) > 180
+
+
+def test_fit_export_eval_on_a_phone_capture(capture, tmp_path):
+    """The whole path as a user runs it: no masks given, mixed views, distortion."""
+    cap = tmp_path / "cap"
+    shutil.copytree(capture, cap)
+    runner = CliRunner()
+    out = tmp_path / "s.doodle"
+    r = runner.invoke(cli, ["fit", str(cap), "-o", str(out), "--size", "160", "--evidence-size", "160",
+                            "--evidence-voxels", "96", "--sq-iterations", "60"])
+    assert r.exit_code == 0, r.output
+    assert "automatic masks" in r.output and (cap / "doodle-masks").is_dir()
+    r = runner.invoke(cli, ["export", str(out), "-o", str(tmp_path / "views"), "--cameras", str(cap), "--png",
+                            "--no-svg"])
+    assert r.exit_code == 0, r.output
+    sizes = {Image.open(p).size for p in (tmp_path / "views").glob("*.png")}
+    assert sizes == {(160, 120), (120, 160)}  # each dataset camera at its own size and orientation
+    r = runner.invoke(cli, ["export", str(out), "-o", str(tmp_path / "orbit"), "--views", "2", "--png", "--no-svg"])
+    assert r.exit_code == 0, r.output
+    assert Image.open(tmp_path / "orbit" / "view_000.png").size == (160, 120)  # the photos' size, not 256
+    r = runner.invoke(cli, ["eval", str(out), str(cap), "--size", "160", "--masks", str(cap / "true_masks"),
+                            "--json", "-"])
+    assert r.exit_code == 0, r.output
+    import json
+
+    m = json.loads(r.output[r.output.index("{"):])
+    assert m["views"] == 15 and m["silhouette_recall"] > 0.6 and m["line_precision"] > 0.6, m
+
+
+def test_bad_captures_get_one_line_errors(tmp_path, capture):
+    runner = CliRunner()
+    two = tmp_path / "two"
+    two.mkdir()
+    for k in range(2):
+        Image.new("RGB", (32, 32), (k * 90, 20, 20)).save(two / f"p{k}.jpg")
+    r = runner.invoke(cli, ["fit", str(two), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "needs at least 3 photos, found 2" in r.output
+    missing = tmp_path / "missing"
+    shutil.copytree(capture, missing)
+    next((missing / "images").glob("*.jpg")).unlink()
+    r = runner.invoke(cli, ["fit", str(missing), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "image not found" in r.output and "Traceback" not in r.output
+    fisheye = tmp_path / "fisheye"
+    shutil.copytree(capture, fisheye)
+    cams = fisheye / "sparse/0/cameras.txt"
+    cams.write_text(cams.read_text().replace("SIMPLE_RADIAL", "SIMPLE_RADIAL_FISHEYE"))
+    with pytest.raises(SceneError, match="fisheye"):
+        load_scene(fisheye)
+    r = runner.invoke(cli, ["fit", str(capture), "-o", str(tmp_path / "x.doodle"), "--masks", str(tmp_path / "nope")])
+    assert r.exit_code == 2 and "mask folder not found" in r.output
+
+
+def test_photos_that_do_not_overlap_fail_cleanly(tmp_path):
+    rng = np.random.default_rng(0)
+    for k in range(3):
+        Image.fromarray((rng.random((96, 128, 3)) * 255).astype(np.uint8)).save(tmp_path / f"p{k}.jpg")
+    r = CliRunner().invoke(cli, ["fit", str(tmp_path), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "structure-from-motion failed" in r.output, r.output

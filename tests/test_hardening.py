@@ -1,0 +1,327 @@
+"""Hostile and broken input: every reproducer of the hardening issue gets one line and exit 2, writes nothing
+partial and runs no code; plus short property-based fuzzing of each reader (the long run is
+``benchmarks/bench_fuzz.py``)."""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import struct
+import zlib
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from PIL import Image
+
+from doodle.cli import cli
+from doodle.errors import DoodleError, SceneError, StrokeFileError
+from doodle.strokes import read_strokes, write_strokes
+from doodle.strokes.binary import decode, encode
+from doodle.strokes.fileio import dumps, loads
+
+from helpers import random_strokes
+
+
+def _doc(strokes) -> dict:
+    return json.loads(dumps(strokes))
+
+
+def _invoke(args: list[str]):
+    r = CliRunner().invoke(cli, args)
+    assert "Traceback" not in r.output
+    return r
+
+
+@pytest.fixture
+def strokes():
+    return random_strokes(0, n_curves=3, n_sq=2)
+
+
+class Payload:
+    def __reduce__(self):
+        return (os.system, ("touch /tmp/doodle-pwned-by-checkpoint",))
+
+
+def test_crafted_pickle_checkpoint_is_refused_and_runs_nothing(chair_dir, tmp_path):
+    marker = Path("/tmp/doodle-pwned-by-checkpoint")
+    marker.unlink(missing_ok=True)
+    out = tmp_path / "s.doodle"
+    with open(tmp_path / "s.doodle.ckpt", "wb") as f:
+        pickle.dump({"format": "doodle-checkpoint", "payload": Payload()}, f)
+    r = _invoke(["fit", str(chair_dir), "-o", str(out), "--resume", "--size", "64", "--evidence-size", "64"])
+    assert r.exit_code == 2, r.output
+    errors = [ln for ln in r.output.splitlines() if ln.startswith("Error:")]
+    assert len(errors) == 1 and "checkpoint" in errors[0]
+    assert not marker.exists() and not out.exists()
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["scene"].__setitem__("radius", 10**400), "too large"),
+    (lambda d: d["scene"].__setitem__("center", [1e300, 0, 0]), "outside"),
+    (lambda d: d["scene"]["camera"].__setitem__("elevation_deg", 90), "outside"),
+    (lambda d: d["scene"]["camera"].__setitem__("width", 1), "outside"),
+    (lambda d: d["scene"]["camera"].__setitem__("width", 10**30), "outside"),
+    (lambda d: d["curves"]["control_points"][0].__setitem__(0, [1e7, 0, 0]), "outside"),
+    (lambda d: d["superquadrics"][0].__setitem__("scale", [1e-9, 1e300, 1]), "outside"),
+])
+def test_stroke_values_drawing_cannot_handle_are_refused(strokes, tmp_path, edit, message):
+    doc = _doc(strokes)
+    edit(doc)
+    path = tmp_path / "bad.doodle"
+    path.write_text(json.dumps(doc))
+    r = _invoke(["export", str(path), "-o", str(tmp_path / "out"), "--png"])
+    assert r.exit_code == 2 and message in r.output, r.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_binary_trailer_bomb_is_refused(strokes):
+    data = bytearray(encode(strokes))
+    (tlen,) = struct.unpack_from("<H", data, len(data) - tlen_guess(data))
+    bomb = zlib.compress(b"{" + b" " * (64 << 20) + b"}", 9)
+    assert len(bomb) < 65535
+    body = bytes(data[: len(data) - tlen - 2])
+    with pytest.raises(StrokeFileError, match="inflates beyond"):
+        decode(body + struct.pack("<H", len(bomb)) + bomb)
+
+
+def tlen_guess(data: bytes) -> int:
+    """Offset from the end of the trailer length field (the trailer is last)."""
+    for tlen in range(0, min(len(data), 65536)):
+        if struct.unpack_from("<H", data, len(data) - tlen - 2)[0] == tlen:
+            return tlen + 2
+    raise AssertionError("no trailer")
+
+
+def test_convert_refuses_what_binary_cannot_hold(strokes, tmp_path):
+    s = strokes
+    s.superquadrics.scale[0] = [1e-7 * s.frame.radius, 1.0, 1.0]
+    src = tmp_path / "tiny.doodle"
+    write_strokes(src, s)
+    r = _invoke(["convert", str(src), str(tmp_path / "tiny.doodleb")])
+    assert r.exit_code == 2 and "keep this file as JSON" in r.output
+    assert not (tmp_path / "tiny.doodleb").exists()
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[1, 2]", "table of settings"),
+    ("[" * 100000 + "]" * 100000, "nested too deeply"),
+    ('{"line": {"width": ' + "9" * 400 + "}}", "huge integer"),
+    ('{"line": {"width": 1e999}}', "finite"),
+])
+def test_bad_style_files(strokes, tmp_path, text, message):
+    style = tmp_path / "s.json"
+    style.write_text(text)
+    write_strokes(tmp_path / "a.doodle", strokes)
+    r = _invoke(["export", str(tmp_path / "a.doodle"), "-o", str(tmp_path / "o"), "--style", str(style)])
+    assert r.exit_code == 2 and message in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1
+
+
+def _nerf_scene(root: Path, file_path: str) -> Path:
+    root.mkdir(exist_ok=True)
+    frames = [{"file_path": file_path, "transform_matrix": np.eye(4).tolist()} for _ in range(3)]
+    (root / "transforms_train.json").write_text(json.dumps({"camera_angle_x": 0.7, "frames": frames}))
+    return root
+
+
+@pytest.mark.parametrize("file_path, message", [
+    ("/etc/passwd", "outside the scene folder"),
+    ("../../../etc/hostname", "outside the scene folder"),
+    ("a" * 5000, "path too long"),
+])
+def test_scene_paths_stay_inside(tmp_path, file_path, message):
+    scene = _nerf_scene(tmp_path / "s", file_path)
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and message in r.output, r.output
+
+
+def test_special_and_disguised_image_files(tmp_path):
+    scene = _nerf_scene(tmp_path / "s", "./r_0.png")
+    fifo = scene / "r_0.png"
+    os.mkfifo(fifo)
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])  # must not block
+    assert r.exit_code == 2 and "not a regular file" in r.output, r.output
+    fifo.unlink()
+    fifo.write_bytes(b"%!PS-Adobe-3.0 EPSF-3.0\n%%BoundingBox: 0 0 10 10\nshowpage\n")
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "not an image doodle reads" in r.output, r.output
+    Image.new("RGB", (16, 16)).save(fifo)
+    data = bytearray(fifo.read_bytes())
+    fifo.write_bytes(bytes(data[:45]))  # a truncated, broken PNG (IDAT cut)
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "r_0.png" in r.output, r.output
+
+
+def test_decompression_bomb_header_is_refused_before_decoding(tmp_path):
+    scene = _nerf_scene(tmp_path / "s", "./r_0.png")
+    Image.new("L", (8, 8)).save(scene / "r_0.png")
+    data = bytearray((scene / "r_0.png").read_bytes())
+    struct.pack_into(">II", data, 16, 100_000, 100_000)  # IHDR width and height
+    struct.pack_into(">I", data, 29, zlib.crc32(bytes(data[12:29])))
+    (scene / "r_0.png").write_bytes(bytes(data))
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "megapixels" in r.output, r.output
+
+
+def test_svg_stays_xml_whatever_the_source_is_called(strokes, tmp_path):
+    from doodle.cameras import orbit_cameras
+    from doodle.exporters.drawing import draw
+    from doodle.exporters.svg import to_svg
+
+    cam = orbit_cameras(strokes.frame, 1)[0]
+    svg = to_svg(draw(strokes, cam), source="evil\x1b[31m\x00\x07\ud800name.doodle")
+    ElementTree.fromstring(svg)
+
+
+def test_sheet_alone_touches_no_folder_and_missing_folders_are_errors(strokes, tmp_path):
+    write_strokes(tmp_path / "a.doodle", strokes)
+    r = _invoke(["export", str(tmp_path / "a.doodle"), "--no-svg", "--sheet", str(tmp_path / "s.png"), "-o",
+                 str(tmp_path / "views"), "--views", "2", "--size", "64"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "s.png").exists() and not (tmp_path / "views").exists()
+    r = _invoke(["animate", str(tmp_path / "a.doodle"), "--gif", str(tmp_path / "nope" / "x.gif"), "--frames", "2",
+                 "--size", "64"])
+    assert r.exit_code == 2 and "does not exist" in r.output and not (tmp_path / "nope").exists()
+    r = _invoke(["export", str(tmp_path / "a.doodle"), "-o", str(tmp_path / "v"), "--background", "notacolour"])
+    assert r.exit_code == 2
+
+
+def test_all_outputs_or_none(strokes, tmp_path):
+    """A failing second output leaves the first untouched."""
+    write_strokes(tmp_path / "a.doodle", strokes)
+    (tmp_path / "old.gif").write_bytes(b"old")
+    (tmp_path / "dir.png").mkdir()
+    r = _invoke(["animate", str(tmp_path / "a.doodle"), "--gif", str(tmp_path / "old.gif"), "--apng",
+                 str(tmp_path / "dir.png"), "--frames", "2", "--size", "64"])
+    assert r.exit_code == 2
+    assert (tmp_path / "old.gif").read_bytes() == b"old"
+
+
+def test_export_folder_is_locked_and_swapped_whole(strokes, tmp_path):
+    import fcntl
+
+    from doodle.atomic import atomic_folder
+
+    out = tmp_path / "views"
+    out.mkdir()
+    (out / "view_000.svg").write_text("old")
+    (out / "notes.txt").write_text("mine")
+    (tmp_path / ".views.doodle-new-stale.tmp").mkdir()  # left by a killed export
+    with atomic_folder(out) as tmp:
+        (tmp / "view_000.svg").write_text("new")
+        assert (out / "view_000.svg").read_text() == "old"  # nothing changes before the swap
+        with pytest.raises(DoodleError, match="another doodle command"):
+            with atomic_folder(out):
+                pass
+    assert (out / "view_000.svg").read_text() == "new" and (out / "notes.txt").read_text() == "mine"
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+    assert fcntl  # the lock is an advisory flock beside the folder
+
+
+def test_info_escapes_terminal_sequences(strokes, tmp_path):
+    strokes.provenance["source"] = "\x1b]0;pwned\x07\x1b[2J"
+    write_strokes(tmp_path / "a.doodle", strokes)
+    r = _invoke(["info", str(tmp_path / "a.doodle")])
+    assert r.exit_code == 0 and "\x1b" not in r.output and "\\x1b" in r.output
+
+
+def test_curves_zero_without_masks(tmp_path, chair_dir):
+    r = _invoke(["fit", str(chair_dir), "-o", str(tmp_path / "x.doodle"), "--curves", "0", "--masks", "none",
+                 "--size", "64"])
+    assert r.exit_code == 2 and "need masks" in r.output
+
+
+def test_sample_folders_are_not_private(tmp_path):
+    from doodle.samples import write_sample
+
+    out = write_sample("snowman", tmp_path / "s", n_train=1, n_test=1, size=16)
+    assert out.stat().st_mode & 0o077 != 0
+
+
+# -- short fuzzing (CI); benchmarks/bench_fuzz.py runs ≥ 10,000 inputs per reader --------------------------
+
+FUZZ = settings(max_examples=int(os.environ.get("DOODLE_FUZZ_EXAMPLES", "150")), deadline=None,
+                suppress_health_check=list(HealthCheck))
+json_values = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
+                           lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c, max_size=4),
+                           max_leaves=30)
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_stroke_json_reader(data):
+    doc = _doc(random_strokes(data.draw(st.integers(0, 100)), n_curves=2, n_sq=1))
+    path = data.draw(st.sampled_from([("scene",), ("scene", "camera"), ("curves",), ("",)]))
+    target = doc
+    for key in path:
+        target = target if key == "" else target[key]
+    target[data.draw(st.sampled_from(sorted(target) + ["x"]))] = data.draw(json_values)
+    try:
+        s = loads(json.dumps(doc))
+    except StrokeFileError:
+        return
+    encode(s) if s.frame.radius else None
+
+
+@FUZZ
+@given(st.binary(max_size=400), st.integers(0, 400))
+def test_fuzz_binary_reader(noise, at):
+    good = bytearray(encode(random_strokes(1, n_curves=2, n_sq=1)))
+    at = min(at, len(good))
+    bad = bytes(good[:at]) + noise + bytes(good[at + len(noise):])
+    try:
+        decode(bad)
+    except StrokeFileError:
+        pass
+
+
+@FUZZ
+@given(json_values)
+def test_fuzz_style_reader(value):
+    from doodle.styles.style import style_from_dict
+
+    try:
+        style_from_dict(value if not isinstance(value, dict) else {"line": value})
+    except DoodleError:
+        pass
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_convert_round_trip(data):
+    """``binary(json(x))`` reads back within the stated tolerance, or is refused up front."""
+    from doodle.strokes.binary import REL_TOLERANCE
+
+    s = random_strokes(data.draw(st.integers(0, 10**6)), n_curves=data.draw(st.integers(0, 5)),
+                       n_sq=data.draw(st.integers(0, 3)))
+    s.frame.radius = data.draw(st.floats(1e-3, 1e3))
+    try:
+        back = decode(encode(loads(dumps(s))))
+    except StrokeFileError:
+        return
+    tol = REL_TOLERANCE * s.frame.radius * 1.01 + 1e-9
+    assert np.abs(back.curves.control_points - s.curves.control_points).max(initial=0) <= tol
+    assert np.abs(back.superquadrics.translation - s.superquadrics.translation).max(initial=0) <= tol
+
+
+def test_scene_without_data_is_one_line(tmp_path):
+    with pytest.raises(SceneError):
+        from doodle.scenes import load_scene
+
+        load_scene(tmp_path)
+
+
+def test_corrupt_colmap_counts_are_refused_before_pycolmap(tmp_path):
+    model = tmp_path / "sparse" / "0"
+    model.mkdir(parents=True)
+    (model / "cameras.bin").write_bytes(struct.pack("<Q", 2**40) + b"\0" * 64)
+    (model / "images.bin").write_bytes(struct.pack("<Q", 0))
+    (model / "points3D.bin").write_bytes(struct.pack("<Q", 0))
+    r = _invoke(["fit", str(tmp_path), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and "corrupt COLMAP model" in r.output, r.output
