@@ -9,6 +9,13 @@ from pathlib import Path
 from typing import Iterator
 
 
+def _plain_mode(path: Path, mode: int) -> None:
+    """Give a file or folder made private by ``mkstemp``/``mkdtemp`` the mode ``open``/``mkdir`` would give."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, mode & ~umask)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed over ``path``.
@@ -33,10 +40,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
-        # mkstemp makes private (0600) files; give the result the permissions a plain open() would.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp_path, 0o666 & ~umask)
+        _plain_mode(tmp_path, 0o666)
         os.replace(tmp_path, path)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
@@ -88,10 +92,11 @@ def _carry_over(old: Path, new: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
+def atomic_folder(path: str | os.PathLike, keep_others: bool = True) -> Iterator[Path]:
     """Yield an empty sibling folder to fill; on success it replaces the files of ``path`` in one step.
 
-    Files of ``path`` that the new content does not replace are kept. The swap is one atomic exchange on
+    Files of ``path`` that the new content does not replace are kept, unless ``keep_others`` is false (the
+    new folder then replaces the old one whole). The swap is one atomic exchange on
     Linux, so a kill at any moment leaves ``path`` entirely old or entirely new (elsewhere two renames).
     A lock beside ``path`` refuses a second writer into the same folder; temporary folders that a killed
     writer left behind are removed by the next one.
@@ -119,13 +124,12 @@ def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
         tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.doodle-new-", suffix=".tmp", dir=path.parent))
         try:
             yield tmp
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o777 & ~umask)
+            _plain_mode(tmp, 0o777)
             if not path.exists():
                 os.rename(tmp, path)
             else:
-                _carry_over(path, tmp)
+                if keep_others:
+                    _carry_over(path, tmp)
                 if not _exchange(tmp, path):
                     old = Path(tempfile.mkdtemp(prefix=f".{path.name}.doodle-old-", suffix=".tmp", dir=path.parent))
                     os.rmdir(old)

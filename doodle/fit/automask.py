@@ -166,11 +166,11 @@ def _final_cut(image: np.ndarray, hull: np.ndarray) -> np.ndarray:
     return _grabcut(image, seeds) & near
 
 
-def _resize(a: np.ndarray, size: tuple[int, int], nearest: bool = False) -> np.ndarray:
-    mode = Image.Resampling.NEAREST if nearest else Image.Resampling.BOX
+def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """An image (area average) or a mask (bilinear, then thresholded) at ``size = (width, height)``."""
     if a.dtype == bool:
         return np.asarray(Image.fromarray(a.astype(np.uint8) * 255).resize(size, Image.Resampling.BILINEAR)) > 127
-    return np.asarray(Image.fromarray(a).resize(size, mode))
+    return np.asarray(Image.fromarray(a).resize(size, Image.Resampling.BOX))
 
 
 def auto_masks(scene: Scene, log: Callable[[str], None] = print) -> list[np.ndarray]:

@@ -19,6 +19,8 @@ from typing import Callable
 
 import numpy as np
 from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..scenes import Scene
@@ -264,20 +266,9 @@ def snap_ends(controls: np.ndarray, radius: float) -> np.ndarray:
         return controls
     out = controls.copy()
     ends = np.concatenate([out[:, 0], out[:, 3]])
-    groups = cKDTree(ends).query_pairs(radius, output_type="ndarray")
-    parent = np.arange(len(ends))
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for a, b in groups:
-        ra, rb = root(a), root(b)
-        if ra != rb:
-            parent[ra] = rb
-    roots = np.array([root(i) for i in range(len(ends))])
+    pairs = cKDTree(ends).query_pairs(radius, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(ends), len(ends)))
+    _, roots = connected_components(graph, directed=False)
     n = len(controls)
     for r in np.unique(roots):
         members = np.flatnonzero(roots == r)

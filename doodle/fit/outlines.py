@@ -20,7 +20,7 @@ from ..strokes.bezier import bezier_points
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
 
 
-def _raster(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
+def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
     """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)``."""
     out = []
     for cam, d in zip(cameras, drawings):
@@ -45,8 +45,8 @@ def outline_scores(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cam
 
     drawings = draw_many(StrokeSet(frame, curves, sq), cameras,
                          DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
-    sil = _raster(drawings, cameras, "silhouettes", lambda pid: int(pid.split("-")[1]))
-    crv = _raster(drawings, cameras, "curves", lambda pid: 0)
+    sil = raster_layer(drawings, cameras, "silhouettes", lambda pid: int(pid.split("-")[1]))
+    crv = raster_layer(drawings, cameras, "curves", lambda pid: 0)
     on_rim = np.zeros(len(sq))
     novel = np.zeros(len(sq))
     total = np.zeros(len(sq))

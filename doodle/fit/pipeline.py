@@ -18,12 +18,12 @@ from .. import __version__
 from ..atomic import atomic_path
 from ..errors import DoodleError
 from ..scenes import Scene
-from ..strokes.bezier import bezier_points
 from ..strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
 from .config import FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
+from .outlines import raster_layer
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
@@ -86,15 +86,8 @@ def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: 
     strokes = StrokeSet(frame, CurveSet(), sq)
     drawings = draw_many(strokes, cameras, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     out = []
-    for cam, d in zip(cameras, drawings):
-        img = np.zeros((cam.height, cam.width), bool)
-        for op in d.layer("silhouettes"):
-            for sp in op.subpaths:
-                for seg in sp:
-                    n = int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4
-                    p = np.floor(bezier_points(seg, np.linspace(0, 1, n))).astype(int)
-                    ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < cam.width) & (p[:, 1] < cam.height)
-                    img[p[ok, 1], p[ok, 0]] = True
+    for cam, per in zip(cameras, raster_layer(drawings, cameras, "silhouettes", lambda _: 0)):
+        img = per.get(0, np.zeros((cam.height, cam.width), bool))
         out.append(ndimage.binary_dilation(img, iterations=grow_px) if grow_px else img)
     return out
 

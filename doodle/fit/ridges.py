@@ -162,20 +162,11 @@ def _bridge(polys: list[np.ndarray], max_gap: float, max_angle_deg: float, touch
     ok = facing & (-(out_dir[a] * out_dir[b]).sum(1) >= cos_max)
     a, b, dist = a[ok], b[ok], dist[ok]
     partner = np.full(2 * len(polys), -1)
-    group = np.arange(len(polys))
-
-    def root(i: int) -> int:
-        while group[i] != i:
-            group[i] = group[group[i]]
-            i = group[i]
-        return i
-
     for i in np.argsort(dist, kind="stable"):
         ea, eb = int(a[i]), int(b[i])
         if ea // 2 == eb // 2 or partner[ea] >= 0 or partner[eb] >= 0:
             continue
         partner[ea], partner[eb] = eb, ea
-        group[root(ea // 2)] = root(eb // 2)
     # walk each group of joined polylines from a free end (or anywhere, for a loop)
     done = np.zeros(len(polys), bool)
     result = []

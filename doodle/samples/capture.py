@@ -13,19 +13,17 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 from scipy import ndimage
 
+from ..atomic import atomic_folder
 from ..cameras import Camera, look_at
-from ..errors import DoodleError
 from ..strokes.superquadric import matrix_to_quaternion
 from .raycast import _shade, cast
-from .scenes import DISTANCE, FOV_DEG, SCENES, visible_feature_edges
+from .scenes import DISTANCE, FOV_DEG, SCENES, sample_target, visible_feature_edges
 
 FLOOR_Z = -0.9  # the sample scenes stand on z ≈ -0.9
 ROLL = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])  # camera roll by 90°: portrait from landscape
@@ -120,20 +118,11 @@ def write_capture(name: str, out_dir: str | os.PathLike, n: int = 30, size: int 
     Raises:
         DoodleError: unknown name, or ``out_dir`` exists and is not empty without ``force``.
     """
-    if name not in SCENES:
-        raise DoodleError(f"unknown sample scene {name!r} (choose from {', '.join(SCENES)})")
-    out = Path(out_dir)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not force:
-        raise DoodleError(f"{out}: exists and is not empty (use --force to replace it)")
+    out = sample_target(name, out_dir, force)
     prims = SCENES[name]()
     rng = np.random.default_rng(seed)
     cams = capture_cameras(n, size, portrait_every)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes a private (0700) folder; the result is an ordinary one
-    try:
+    with atomic_folder(out, keep_others=False) as tmp:
         for d in ("images", "true_masks", "sparse/0"):
             (tmp / d).mkdir(parents=True)
         cam_lines, image_lines, portraits = {}, [], 0
@@ -166,10 +155,4 @@ def write_capture(name: str, out_dir: str | os.PathLike, n: int = 30, size: int 
         gt = {"name": name, "up": [0, 0, 1], "primitives": [p.to_dict() for p in prims],
               "feature_edges": visible_feature_edges(prims).round(6).tolist()}
         (tmp / "ground_truth.json").write_text(json.dumps(gt))
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out

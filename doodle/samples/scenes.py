@@ -10,14 +10,13 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 from PIL import Image
 
+from ..atomic import atomic_folder
 from ..cameras import Camera, look_at
 from ..errors import DoodleError
 from .primitives import Box, Cone, Cylinder, Primitive, Sphere
@@ -112,9 +111,8 @@ def _blender_c2w(cam: Camera) -> list[list[float]]:
     return (cam.c2w @ np.diag([1.0, -1.0, -1.0, 1.0])).tolist()  # OpenCV → Blender axes
 
 
-def write_sample(name: str, out_dir: str | os.PathLike, n_train: int = N_TRAIN, n_test: int = N_TEST,
-                 size: int = SIZE, force: bool = False, supersample: int = 2) -> Path:
-    """Render scene ``name`` into ``out_dir`` (built in a temporary folder, then moved into place).
+def sample_target(name: str, out_dir: str | os.PathLike, force: bool) -> Path:
+    """The folder a sample scene goes to, checked: a known name, and a missing or empty folder unless ``force``.
 
     Raises:
         DoodleError: unknown name, or ``out_dir`` exists and is not empty without ``force``.
@@ -124,13 +122,20 @@ def write_sample(name: str, out_dir: str | os.PathLike, n_train: int = N_TRAIN, 
     out = Path(out_dir)
     if out.exists() and (not out.is_dir() or any(out.iterdir())) and not force:
         raise DoodleError(f"{out}: exists and is not empty (use --force to replace it)")
+    return out
+
+
+def write_sample(name: str, out_dir: str | os.PathLike, n_train: int = N_TRAIN, n_test: int = N_TEST,
+                 size: int = SIZE, force: bool = False, supersample: int = 2) -> Path:
+    """Render scene ``name`` into ``out_dir`` (built in a sibling folder that replaces it whole at the end,
+    see :func:`doodle.atomic.atomic_folder`).
+
+    Raises:
+        DoodleError: unknown name, or ``out_dir`` exists and is not empty without ``force``.
+    """
+    out = sample_target(name, out_dir, force)
     prims = SCENES[name]()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes a private (0700) folder; the result is an ordinary one
-    try:
+    with atomic_folder(out, keep_others=False) as tmp:
         for split, n in (("train", n_train), ("test", n_test)):
             (tmp / split).mkdir()
             frames = []
@@ -142,17 +147,6 @@ def write_sample(name: str, out_dir: str | os.PathLike, n_train: int = N_TRAIN, 
         gt = {"name": name, "up": [0, 0, 1], "primitives": [p.to_dict() for p in prims],
               "feature_edges": visible_feature_edges(prims).round(6).tolist()}
         (tmp / "ground_truth.json").write_text(json.dumps(gt))
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            shutil.rmtree(old, ignore_errors=True)
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 
