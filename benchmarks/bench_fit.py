@@ -6,7 +6,8 @@ Bars (issue 9, stroke discovery), all with default settings on 2 CPU cores:
   evidence and curve extraction together ≤ 20 s; ``--sheet DIR`` writes the contact sheets to look at;
 - chair, lamp, snowman: no worse than the README's quality table; the chair's ground-truth edges (24 curves).
 
-Run: ``python benchmarks/bench_fit.py [--only snowman,lamp,chair,abc,lego] [--sheet DIR]``.
+Run: ``python benchmarks/bench_fit.py [--only snowman,lamp,chair,abc,lego] [--sheet DIR] [--iterations N]``
+(``--iterations``: distance-field steps after discovery, default the fit's).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from doodle.exporters import ExportOptions, export_views  # noqa: E402
 from doodle.fit import FitConfig, fit  # noqa: E402
 from doodle.samples import load_ground_truth, write_sample  # noqa: E402
 from doodle.scenes import load_scene, load_scene_at_size  # noqa: E402
+from doodle.strokes import write_strokes  # noqa: E402
 from helpers_geometry import edge_scores  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -50,12 +52,15 @@ def line(name: str, dt: float, s, m: dict) -> str:
 
 def sheet(strokes, cameras, out: Path | None, name: str) -> None:
     if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        write_strokes(out / f"{name}.doodle", strokes)
         export_views(strokes, cameras, out / name, ExportOptions(svg=False, sheet=out / f"{name}.png"))
 
 
 def main() -> None:
     only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
     sheets = Path(sys.argv[sys.argv.index("--sheet") + 1]) if "--sheet" in sys.argv else None
+    extra = {"iterations": int(sys.argv[sys.argv.index("--iterations") + 1])} if "--iterations" in sys.argv else {}
     want = lambda name: only is None or name in only  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
         for name in ("snowman", "chair", "lamp"):
@@ -63,7 +68,7 @@ def main() -> None:
                 continue
             d = write_sample(name, Path(tmp) / name)
             t0 = time.perf_counter()
-            res = fit(load_scene(d), FitConfig(), log=quiet, progress=False)
+            res = fit(load_scene(d), FitConfig(**extra), log=quiet, progress=False)
             dt = time.perf_counter() - t0
             test = load_scene(d, split="test")
             out = line(name, dt, res.strokes, evaluate(res.strokes, test))
@@ -84,7 +89,7 @@ def main() -> None:
 
             t0 = time.perf_counter()
             scene = load_scene_at_size(ABC, "train", 512)
-            res = fit(scene, FitConfig(), log=quiet, progress=False)
+            res = fit(scene, FitConfig(**extra), log=quiet, progress=False)
             dt = time.perf_counter() - t0
             test = load_scene_at_size(ABC, "test", 256)
             m = evaluate(res.strokes, test, truth=read_abc_ground_truth(ABC / "ground_truth"))
@@ -101,7 +106,7 @@ def main() -> None:
         scene = load_scene_at_size(LEGO, "train", 512)
         held = np.arange(0, len(scene), 10)
         messages: list[str] = []
-        res = fit(scene.subset(np.setdiff1d(np.arange(len(scene)), held)), FitConfig(),
+        res = fit(scene.subset(np.setdiff1d(np.arange(len(scene)), held)), FitConfig(**extra),
                   log=lambda m: (messages.append(m), quiet(m)), progress=False)
         dt = time.perf_counter() - t0
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2

@@ -1,6 +1,6 @@
 """Long fuzz run of every reader: the property tests of ``tests/test_hardening.py`` with many more inputs.
 
-Each reader (stroke JSON, stroke binary, style, convert round trip) gets ``--examples`` generated inputs
+Each reader (stroke JSON, stroke binary, style, convert round trip, COLMAP binary model, transforms JSON) gets ``--examples`` generated inputs
 (default 10,000) under a 10 s per-input limit; prints the inputs tried, failures and the time per reader.
 A failure is any exception other than the reader's one-line error, or a hang.
 
@@ -26,7 +26,7 @@ def main() -> None:
     args = ap.parse_args()
     env = {**os.environ, "DOODLE_FUZZ_EXAMPLES": str(args.examples)}
     for test in ("test_fuzz_stroke_json_reader", "test_fuzz_binary_reader", "test_fuzz_style_reader",
-                 "test_fuzz_convert_round_trip"):
+                 "test_fuzz_convert_round_trip", "test_fuzz_colmap_reader", "test_fuzz_transforms_reader"):
         t = time.perf_counter()
         p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--timeout", "36000",
                             "--hypothesis-show-statistics", f"tests/test_hardening.py::{test}"],

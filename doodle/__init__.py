@@ -11,3 +11,11 @@ The package is organised by pipeline stage (see ``DESIGN.md`` in the repository)
 """
 
 __version__ = "0.1.0"
+
+import os as _os
+
+# torch's OpenMP threads spin at every barrier by default. On a busy machine (a shared CI runner, a laptop
+# with a browser open) a spinning thread waits for one that is not scheduled, and a 17 s fit took 250 s
+# beside two busy processes. Sleeping waits cost ~10 % on an idle machine and make a loaded one 3-6x faster
+# (benchmarks/bench_soak.py). Only when the user chose nothing, and only before torch loads OpenMP.
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

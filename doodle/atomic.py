@@ -42,6 +42,11 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         yield tmp_path
         _plain_mode(tmp_path, 0o666)
         os.replace(tmp_path, path)
+    except OSError as exc:  # a full disk names no file, or the hidden temporary one: name the target
+        tmp_path.unlink(missing_ok=True)
+        if exc.errno is None:
+            raise
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise

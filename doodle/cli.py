@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,12 @@ class UserError(click.ClickException):
     """A library error shown as ``Error: <one line>`` with exit code 2."""
 
     exit_code = 2
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                      file: Any = None, line: str | None = None) -> None:
+    """Show a warning as ``Warning: <one line>`` (no source file and line: users did not write them)."""
+    click.echo(f"Warning: {str(message).splitlines()[0] if str(message) else category.__name__}", err=True)
 
 
 class DoodleGroup(click.Group):
@@ -38,7 +45,9 @@ class DoodleGroup(click.Group):
     def main(self, *args: Any, **kwargs: Any) -> Any:
         kwargs["standalone_mode"] = False
         try:
-            rv = super().main(*args, **kwargs)
+            with warnings.catch_warnings():
+                warnings.showwarning = _one_line_warning
+                rv = super().main(*args, **kwargs)
         except click.exceptions.Exit as exc:
             sys.exit(exc.exit_code)
         except (click.Abort, KeyboardInterrupt):

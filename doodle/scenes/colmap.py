@@ -17,6 +17,7 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import SceneError
+from .colmap_binary import check_binary_model
 from .images import read_image, read_mask, scene_path
 from .scene import Scene, estimate_frame
 
@@ -66,7 +67,7 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     model_dir = find_model_dir(root)
     if model_dir is None:
         raise SceneError(f"{root}: no COLMAP model (cameras.bin/.txt) in it or in sparse/0")
-    _check_binary_counts(model_dir)
+    check_binary_model(model_dir)
     try:
         rec = pycolmap.Reconstruction(str(model_dir))
     except Exception as exc:  # pycolmap raises bare RuntimeErrors/ValueErrors for unreadable models
@@ -114,31 +115,6 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     frame = estimate_frame(cameras, points=pts if len(pts) else None, full_size=(c0.width, c0.height))
     return Scene(cameras, images, frame,
                  masks if has_masks else None, pts if len(pts) else None, str(root), paths)
-
-
-# Smallest record of each binary model file (COLMAP's layout): a count that cannot fit in the file means a
-# corrupt model, which pycolmap would otherwise try to read (one such file made it loop for ever).
-_MIN_RECORD = {"cameras.bin": 24, "images.bin": 4 + 32 + 24 + 4 + 1 + 8, "points3D.bin": 8 + 24 + 3 + 8 + 8}
-
-
-def _check_binary_counts(model_dir: Path) -> None:
-    import struct
-
-    for name, size in _MIN_RECORD.items():
-        path = model_dir / name
-        if not path.exists():
-            continue
-        if not path.is_file():
-            raise SceneError(f"{path}: not a regular file")
-        total = path.stat().st_size
-        with open(path, "rb") as f:
-            head = f.read(8)
-        if len(head) < 8:
-            raise SceneError(f"{path}: corrupt COLMAP model (file too short)")
-        (count,) = struct.unpack("<Q", head)
-        if count * size > total - 8:
-            raise SceneError(f"{path}: corrupt COLMAP model (claims {count} records, the file holds at most "
-                             f"{(total - 8) // size})")
 
 
 def _check_model(cam, model_dir: Path) -> None:

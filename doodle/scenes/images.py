@@ -29,6 +29,8 @@ def scene_path(root: Path, rel: str, where: str) -> Path:
                          "link or copy images stored elsewhere)")
     if len(rel) > 1024 or any(len(part) > 255 for part in p.parts):
         raise SceneError(f"{where}: path too long")
+    if any(ord(ch) < 32 or ord(ch) == 127 for ch in rel):  # would break the one-line messages that name it
+        raise SceneError(f"{where}: {rel[:80]!r} has control characters")
     return root / p
 
 

@@ -75,8 +75,8 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
     path = root / f"transforms_{split}.json"
     data = _read_json(path)
     angle = data.get("camera_angle_x")
-    if isinstance(angle, bool) or not isinstance(angle, (int, float)) or not 0 < angle < math.pi:
-        raise SceneError(f"{path}: camera_angle_x missing or not an angle in (0, pi)")
+    if isinstance(angle, bool) or not isinstance(angle, (int, float)) or not 1e-3 <= angle <= math.pi - 1e-3:
+        raise SceneError(f"{path}: camera_angle_x missing or not an angle in (0, pi) radians")
     cameras, images, masks, paths = [], [], [], []
     for i, fr in enumerate(data["frames"]):
         if not isinstance(fr, dict) or not isinstance(fr.get("file_path"), str):
