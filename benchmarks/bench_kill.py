@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import os
 import random
 import shutil
 import signal
@@ -64,14 +63,19 @@ class KillRig:
         subprocess.run([sys.executable, str(self.script), str(self.strokes), str(out), str(views), background],
                        check=True, capture_output=True, timeout=300)
 
-    def trial(self, delay: float) -> str:
-        """Reset the folder to the old export, kill a new export after ``delay`` s; 'old', 'new' or 'mixed'."""
+    def start_new_export(self) -> subprocess.Popen:
+        """Reset the folder to the old export and start the new one; returns once it printed 'start'."""
         shutil.rmtree(self.views, ignore_errors=True)
         shutil.copytree(self.root / "old", self.views)
         proc = subprocess.Popen([sys.executable, str(self.script), str(self.strokes), str(self.views), "12", NEW_BACKGROUND],
                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        assert proc.stdout.readline().strip() == "start"
+        return proc
+
+    def trial(self, delay: float) -> str:
+        """Kill a new export ``delay`` s after it started drawing; 'old', 'new' or 'mixed'."""
+        proc = self.start_new_export()
         try:
-            assert proc.stdout.readline().strip() == "start"
             time.sleep(delay)
         finally:
             proc.send_signal(signal.SIGKILL)
@@ -91,11 +95,7 @@ class KillRig:
 
 def export_seconds(rig: KillRig) -> float:
     """How long the new export runs after printing 'start' (the window the kills are spread over)."""
-    shutil.rmtree(rig.views, ignore_errors=True)
-    shutil.copytree(rig.root / "old", rig.views)
-    proc = subprocess.Popen([sys.executable, str(rig.script), str(rig.strokes), str(rig.views), "12", NEW_BACKGROUND],
-                            stdout=subprocess.PIPE, text=True)
-    proc.stdout.readline()
+    proc = rig.start_new_export()
     t0 = time.perf_counter()
     proc.stdout.readline()
     proc.wait()
@@ -130,5 +130,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    os.environ.setdefault("PYTHONUNBUFFERED", "1")
     main()
