@@ -1,6 +1,7 @@
 """Long fuzz run of every reader: the property tests of ``tests/test_hardening.py`` with many more inputs.
 
-Each reader (stroke JSON, stroke binary, style, convert round trip, COLMAP binary model, transforms JSON) gets ``--examples`` generated inputs
+Each reader (stroke JSON, stroke binary, style, convert round trip, COLMAP binary and text models, NeRF-synthetic
+and nerfstudio transforms JSON) gets ``--examples`` generated inputs
 (default 10,000) under a 10 s per-input limit; prints the inputs tried, failures and the time per reader.
 A failure is any exception other than the reader's one-line error, or a hang.
 
@@ -23,16 +24,20 @@ ROOT = Path(__file__).resolve().parents[1]
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--examples", type=int, default=10_000)
+    ap.add_argument("--only", nargs="*", help="run only these tests (names as below)")
     args = ap.parse_args()
     env = {**os.environ, "DOODLE_FUZZ_EXAMPLES": str(args.examples)}
-    for test in ("test_fuzz_stroke_json_reader", "test_fuzz_binary_reader", "test_fuzz_style_reader",
-                 "test_fuzz_convert_round_trip", "test_fuzz_colmap_reader", "test_fuzz_transforms_reader"):
+    tests = ("test_fuzz_stroke_json_reader", "test_fuzz_binary_reader", "test_fuzz_style_reader",
+             "test_fuzz_convert_round_trip", "test_fuzz_colmap_reader", "test_fuzz_colmap_text_reader",
+             "test_fuzz_transforms_reader", "test_fuzz_nerfstudio_reader")
+    for test in args.only or tests:
         t = time.perf_counter()
         p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--timeout", "36000",
                             "--hypothesis-show-statistics", f"tests/test_hardening.py::{test}"],
                            cwd=ROOT, env=env, capture_output=True, text=True)
-        stats = re.search(r"(\d+) passing(?: examples?)?, (\d+) failing", p.stdout)
-        tried = f"{stats.group(1)} passing, {stats.group(2)} failing" if stats else "?"
+        # Hypothesis reports each phase (replaying its example database, generating, shrinking): sum them.
+        stats = re.findall(r"(\d+) passing(?: examples?)?, (\d+) failing", p.stdout)
+        tried = f"{sum(int(a) for a, _ in stats)} passing, {sum(int(b) for _, b in stats)} failing" if stats else "?"
         print(f"{test:<32} {tried:<32} {'ok' if p.returncode == 0 else 'FAILED'}  {time.perf_counter() - t:.0f} s")
         if p.returncode != 0:
             print(p.stdout[-3000:])

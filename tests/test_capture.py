@@ -96,6 +96,10 @@ def test_support_plane_is_removed():
     kept, removed = remove_support_plane(np.r_[floor, obj], cams, radius=1.0)
     assert removed
     assert (kept[:, 2] > -0.97).all() and len(kept) > 180
+    # A base plate twice as wide as the object on it, framed by every photo (Lego's): part of the object.
+    plate = np.c_[rng.uniform(-0.6, 0.6, (400, 2)), np.full(400, -1.0)]
+    kept, removed = remove_support_plane(np.r_[plate, obj * 0.6], cams, radius=1.0)
+    assert not removed and len(kept) == 600
 
 
 def test_fit_export_eval_on_a_phone_capture(capture, tmp_path):
@@ -121,8 +125,19 @@ def test_fit_export_eval_on_a_phone_capture(capture, tmp_path):
     assert r.exit_code == 0, r.output
     import json
 
-    m = json.loads(r.output[r.output.index("{"):])
+    m = json.loads(r.stdout)  # progress goes to stderr: stdout is JSON only
     assert m["views"] == 15 and m["silhouette_recall"] > 0.6 and m["line_precision"] > 0.6, m
+    # the same as a folder of photos whose SfM model is cached: still JSON only on stdout
+    photos = tmp_path / "photos"
+    shutil.copytree(cap / "images", photos)
+    import pycolmap
+
+    (photos / ".doodle-sfm" / "model").mkdir(parents=True)
+    pycolmap.Reconstruction(str(cap / "sparse" / "0")).write_binary(str(photos / ".doodle-sfm" / "model"))
+    r = runner.invoke(cli, ["eval", str(out), str(photos), "--size", "160", "--masks", str(cap / "true_masks"),
+                            "--json", "-"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["views"] == 15 and "reusing" in r.stderr
 
 
 def test_bad_captures_get_one_line_errors(tmp_path, capture):
@@ -154,3 +169,26 @@ def test_photos_that_do_not_overlap_fail_cleanly(tmp_path):
         Image.fromarray((rng.random((96, 128, 3)) * 255).astype(np.uint8)).save(tmp_path / f"p{k}.jpg")
     r = CliRunner().invoke(cli, ["fit", str(tmp_path), "-o", str(tmp_path / "x.doodle")])
     assert r.exit_code == 2 and "structure-from-motion failed" in r.output, r.output
+
+
+def test_misaimed_cameras_are_flagged():
+    """Cameras on a ring aimed at the object, two aimed 10° off (SfM put them on the wrong side): flagged;
+    a forward-facing capture (parallel axes) flags nothing."""
+    from doodle.scenes.photos import misaimed
+
+    rng = np.random.default_rng(0)
+    a = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    centres = np.stack([4 * np.cos(a), 4 * np.sin(a), 1 + 0.3 * rng.standard_normal(24)], 1)
+    aim = rng.normal(scale=0.05, size=(24, 3))  # roughly centred, as by hand
+    directions = aim - centres
+    off = np.radians(10)
+    for k in (3, 17):  # turn two cameras about the vertical axis
+        c, s = np.cos(off), np.sin(off)
+        directions[k] = [c * directions[k, 0] - s * directions[k, 1], s * directions[k, 0] + c * directions[k, 1],
+                         directions[k, 2]]
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    assert np.flatnonzero(misaimed(centres, directions)).tolist() == [3, 17]
+    directions[[3, 17]] = -centres[[3, 17]] / np.linalg.norm(centres[[3, 17]], axis=1, keepdims=True)
+    assert not misaimed(centres, directions).any()
+    forward = np.tile([0.0, 0.0, 1.0], (10, 1))
+    assert not misaimed(np.c_[np.arange(10.0), np.zeros(10), np.zeros(10)], forward).any()

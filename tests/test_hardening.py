@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import pickle
+import re
 import struct
 import zlib
 from pathlib import Path
@@ -386,22 +387,38 @@ _TEMPLATES: dict[str, Path] = {}
 
 
 def _template(kind: str) -> Path:
-    """A tiny valid scene, made once per session: ``colmap`` (binary model + photos) or ``nerf``."""
+    """A tiny valid scene, made once per session: ``colmap`` (binary model + photos), ``colmap-text`` (text
+    model + photos), ``nerf`` (NeRF-synthetic) or ``nerfstudio`` (``transforms.json`` with intrinsics)."""
     import tempfile
 
     if kind not in _TEMPLATES:
         root = Path(tempfile.mkdtemp(prefix="doodle-fuzz-"))
-        if kind == "colmap":
+        if kind in ("colmap", "colmap-text"):
             import pycolmap
 
             from doodle.samples.capture import write_capture
 
             scene = write_capture("chair", root / "scene", n=5, size=48)
-            model = scene / "sparse" / "0"
-            rec = pycolmap.Reconstruction(str(model))
-            for f in model.iterdir():
-                f.unlink()
-            rec.write_binary(str(model))
+            if kind == "colmap":
+                model = scene / "sparse" / "0"
+                rec = pycolmap.Reconstruction(str(model))
+                for f in model.iterdir():
+                    f.unlink()
+                rec.write_binary(str(model))
+        elif kind == "nerfstudio":
+            from doodle.samples import write_sample
+            from doodle.scenes import load_scene
+
+            scene = write_sample("chair", root / "scene", n_train=3, n_test=1, size=32)
+            cams = load_scene(scene).cameras
+            frames = [{"file_path": f"train/{c.name}.png", "fl_x": c.fx,
+                       "transform_matrix": (c.c2w @ np.diag([1.0, -1, -1, 1])).tolist()} for c in cams]
+            c0 = cams[0]
+            (scene / "transforms.json").write_text(json.dumps(
+                {"camera_model": "OPENCV", "fl_x": c0.fx, "fl_y": c0.fy, "cx": c0.cx, "cy": c0.cy, "w": c0.width,
+                 "h": c0.height, "frames": frames}))
+            for split in ("train", "val", "test"):
+                (scene / f"transforms_{split}.json").unlink(missing_ok=True)
         else:
             from doodle.samples import write_sample
 
@@ -474,3 +491,79 @@ def test_fuzz_transforms_reader(data):
         path.write_text(json.dumps(doc))
 
     _load_broken_copy("nerf", "transforms_train.json", replace_a_field)
+
+
+# Tokens a broken text model may hold: numbers of every size and sign, non-numbers, names with odd characters.
+colmap_tokens = (st.integers(-2**64, 2**64).map(str) | st.floats().map(repr)
+                 | st.sampled_from(["nan", "inf", "-1", "0", "1e308", "PINHOLE", "OPENCV_FISHEYE", "", "#"])
+                 | st.text(max_size=8))
+
+
+@FUZZ
+@given(st.sampled_from(["cameras.txt", "images.txt", "points3D.txt"]), st.data())
+def test_fuzz_colmap_text_reader(name, data):
+    """A token of a valid text model replaced, or a line dropped, cut or repeated: loads, or one line."""
+
+    def edit_a_line(path: Path) -> None:
+        lines = path.read_text().splitlines()
+        i = data.draw(st.integers(0, len(lines) - 1))
+        action = data.draw(st.sampled_from(["token", "token", "drop", "cut", "repeat"]))
+        if action == "token":
+            tokens = lines[i].split(" ")
+            tokens[data.draw(st.integers(0, len(tokens) - 1))] = data.draw(colmap_tokens)
+            lines[i] = " ".join(tokens)
+        elif action == "drop":
+            del lines[i]
+        elif action == "cut":
+            lines[i] = lines[i][:data.draw(st.integers(0, len(lines[i])))]
+        else:
+            lines.insert(i, lines[i])
+        path.write_text("\n".join(lines) + "\n")
+
+    _load_broken_copy("colmap-text", f"sparse/0/{name}", edit_a_line)
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_nerfstudio_reader(data):
+    """A random field of a valid nerfstudio ``transforms.json`` replaced by random JSON: loads, or one line."""
+
+    def replace_a_field(path: Path) -> None:
+        doc = json.loads(path.read_text())
+        frame = doc["frames"][data.draw(st.integers(0, len(doc["frames"]) - 1))]
+        target = data.draw(st.sampled_from([doc, frame, frame["transform_matrix"]]))
+        if isinstance(target, list):
+            row = target[data.draw(st.integers(0, len(target) - 1))]
+            row[data.draw(st.integers(0, len(row) - 1))] = data.draw(json_values)
+        else:
+            key = data.draw(st.sampled_from(sorted(target) + ["x", "mask_path", "fl_y"]))
+            target[key] = data.draw(json_values | st.floats(1e-9, 1e9) | st.integers(1, 10**7))
+        path.write_text(json.dumps(doc))
+
+    _load_broken_copy("nerfstudio", "transforms.json", replace_a_field)
+
+
+# Reproducers found by the text-model and nerfstudio fuzzing.
+def _far_translation(text: str) -> str:
+    doc = json.loads(text)
+    doc["frames"][0]["transform_matrix"][0][3] = 7.444044111542706e+154
+    return json.dumps(doc)
+
+
+@pytest.mark.parametrize("own, edit, why", [
+    ("sparse/0/cameras.txt", lambda t: t.replace(" 48 36 ", " 0 36 ", 1), "image size 0 x 36"),
+    ("sparse/0/images.txt", lambda t: "\n".join(ln for k, ln in enumerate(t.splitlines()) if k != 9) + "\n",
+     "cannot read COLMAP model"),
+    ("transforms.json", lambda t: t.replace('"h": 32', '"h": 298619099.0'), "intrinsics are for 32x2.98619e+08"),
+    ("transforms.json", _far_translation, "within ±1e9"),
+])
+def test_fuzz_reproducers_for_text_scenes(tmp_path, own, edit, why):
+    from doodle.scenes import load_scene
+
+    kind = "nerfstudio" if own == "transforms.json" else "colmap-text"
+    scene = _copy_scene(_template(kind), tmp_path / "s", own)
+    text = (scene / own).read_text()
+    assert edit(text) != text
+    (scene / own).write_text(edit(text))
+    with pytest.raises(SceneError, match=re.escape(why)):
+        load_scene(scene)

@@ -112,6 +112,23 @@ class TestNerfstudio:
             assert np.allclose(a.R, b.R, atol=1e-9) and np.allclose(a.t, b.t, atol=1e-9)
         assert scene.masks is not None and scene.masks[0].any()
 
+    def test_scaled_copies_scale_the_intrinsics(self, tmp_path):
+        """Images at half the size the intrinsics describe (nerfstudio's images_2) keep exact projections;
+        an image of another shape is refused, naming it."""
+        cams = _fake_views(tmp_path)
+        frames = [{"file_path": f"images/{c.name}.png",
+                   "transform_matrix": (c.c2w @ np.diag([1.0, -1, -1, 1])).tolist()} for c in cams]
+        c0 = cams[0]
+        doc = {"fl_x": 2 * c0.fx, "fl_y": 2 * c0.fy, "cx": 2 * c0.cx, "cy": 2 * c0.cy, "w": 128, "h": 128,
+               "frames": frames}
+        (tmp_path / "transforms.json").write_text(json.dumps(doc))
+        scene = load_nerfstudio(tmp_path)
+        assert scene.cameras[0].width == 64 and scene.cameras[0].fx == pytest.approx(c0.fx)
+        doc["h"] = 64
+        (tmp_path / "transforms.json").write_text(json.dumps(doc))
+        with pytest.raises(SceneError, match="is 64x64 but the intrinsics are for 128x64"):
+            load_nerfstudio(tmp_path)
+
     def test_missing_intrinsics(self, tmp_path):
         (tmp_path / "transforms.json").write_text(json.dumps(
             {"frames": [{"file_path": "a.png", "transform_matrix": np.eye(4).tolist()}]}))
@@ -146,3 +163,28 @@ class TestColmap:
         (tmp_path / "cameras.txt").write_text("garbage\n")
         with pytest.raises(SceneError):
             load_colmap(tmp_path)
+
+
+def test_camera_up_is_level_even_from_one_side():
+    """Cameras on one side of an object at mixed heights, some held in portrait: up is the world's up
+    (the mean image-up leans towards the side the photos were taken from); a sideways pan keeps it too."""
+    from doodle.cameras import Camera, look_at
+    from doodle.scenes.scene import camera_up
+
+    z = np.array([0.0, 0.0, 1.0])
+    cams = []
+    for k, (a, e) in enumerate(zip(np.linspace(0, 2.0, 12), np.linspace(0.1, 1.2, 12))):
+        eye = 4 * np.array([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)])
+        R, t = look_at(eye, np.zeros(3), z)
+        if k % 3 == 0:  # portrait: rolled by 90° about the optical axis
+            R = np.array([R[1], -R[0], R[2]])
+            t = -R @ eye
+        cams.append(Camera(100, 100, 50, 50, 100, 100, R, t))
+    mean_image_up = np.mean([-c.R[1] if k % 3 else c.R[0] for k, c in enumerate(cams)], axis=0)
+    assert np.degrees(np.arccos(mean_image_up @ z / np.linalg.norm(mean_image_up))) > 10
+    assert np.degrees(np.arccos(camera_up(cams) @ z)) < 0.5
+    pan = []
+    for x in np.linspace(-1, 1, 6):
+        R, t = look_at(np.array([x, -4.0, 0.5]), np.array([x, 0.0, 0.0]), z)
+        pan.append(Camera(100, 100, 50, 50, 100, 100, R, t))
+    assert camera_up(pan) @ z > 0.99

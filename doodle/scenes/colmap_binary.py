@@ -18,11 +18,11 @@ import struct
 from pathlib import Path
 
 from ..errors import SceneError
+from .scene import MAX_COORD
 
 #: Parameters per COLMAP camera model id (``src/colmap/sensor/models.h``).
 MODEL_PARAMS = {0: 3, 1: 4, 2: 4, 3: 5, 4: 8, 5: 8, 6: 12, 7: 5, 8: 4, 9: 5, 10: 12, 11: 16}
 MAX_IMAGE_SIDE = 1 << 17
-MAX_COORD = 1e9  # scene units: far beyond any capture, near enough that squares and SVDs stay finite
 
 
 class _Bytes:

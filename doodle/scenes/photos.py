@@ -9,9 +9,11 @@ posed instead, so that cameras, images and sketches are all upright.
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 from PIL import ImageOps
 
 from ..errors import SceneError
@@ -23,11 +25,64 @@ ORIENTATION = 0x0112  # the EXIF orientation tag
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
 
 
+def _to_stderr(message: str) -> None:
+    """Default progress log: stderr, so that a command printing results on stdout (``eval --json -``) stays
+    parseable."""
+    print(message, file=sys.stderr)
+
+
 def photo_files(root: Path) -> list[Path]:
     return sorted(p for p in root.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
 
 
-def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
+def misaimed(centres: np.ndarray, directions: np.ndarray, min_angle: float = 0.08, factor: float = 4.0,
+             max_share: float = 1 / 3) -> np.ndarray:
+    """Cameras that do not look at the object the others look at, ``(N,)`` bool.
+
+    Photos of one object are aimed at it, so the optical axes (``centres`` ``(N, 3)``, unit ``directions``
+    ``(N, 3)``) nearly meet at a common focus: the point nearest all axes in the least-squares sense, found
+    again without the outliers. A camera whose axis misses that focus by more than ``factor`` times the median
+    angle (and ``min_angle`` radians) is flagged. On repetitive or symmetric objects SfM can register a few
+    photos on the wrong side of the object; their axes then miss the focus (Lego: 7 of 53 wrong views at
+    0.11–0.15 rad, every right one at most 0.03). Nothing is flagged when the axes do not meet (a
+    forward-facing capture), or when more than ``max_share`` would be.
+    """
+    n = len(centres)
+    keep = np.ones(n, bool)
+    if n < 4:
+        return ~keep
+    for _ in range(2):
+        proj = np.eye(3)[None] - directions[keep, :, None] * directions[keep, None, :]  # (K, 3, 3)
+        A, b = proj.sum(axis=0), np.einsum("kij,kj->i", proj, centres[keep])
+        if np.linalg.cond(A) > 1e6:
+            return np.zeros(n, bool)
+        focus = np.linalg.solve(A, b)
+        to_focus = focus - centres
+        dist = np.linalg.norm(to_focus, axis=1)
+        cos = np.einsum("ij,ij->i", to_focus, directions) / np.maximum(dist, 1e-12)
+        angle = np.arccos(np.clip(cos, -1.0, 1.0))
+        keep = angle <= max(min_angle, factor * float(np.median(angle)))
+    if (~keep).sum() > max_share * n:
+        return np.zeros(n, bool)
+    return ~keep
+
+
+def drop_misaimed(rec, log: Callable[[str], None]) -> None:
+    """Deregister the photos of ``rec`` (a ``pycolmap.Reconstruction``) that :func:`misaimed` flags."""
+    ids = sorted(rec.reg_image_ids())
+    centres = np.array([rec.image(i).projection_center() for i in ids]).reshape(-1, 3)
+    directions = np.array([rec.image(i).viewing_direction() for i in ids]).reshape(-1, 3)
+    bad = [i for i, flag in zip(ids, misaimed(centres, directions)) if flag]
+    if not bad:
+        return
+    for i in bad:
+        rec.deregister_frame(rec.image(i).frame_id)
+    names = sorted(rec.image(i).name for i in bad)
+    log(f"structure-from-motion: dropped {len(bad)} photos whose cameras do not aim at the object, so their "
+        f"poses are likely wrong: {', '.join(names[:8])}{' …' if len(names) > 8 else ''}")
+
+
+def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
     """Pose the photos in ``root``; returns the folder holding the COLMAP model (``cameras.bin`` …).
 
     Raises:
@@ -87,6 +142,7 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
         n = 0 if best is None else best.num_reg_images()
         raise SceneError(f"{root}: structure-from-motion failed: registered {n} of {len(photos)} photos "
                          f"(photos need overlap and texture; or give poses as a COLMAP model)")
+    drop_misaimed(best, log)
     model.mkdir(parents=True, exist_ok=True)
     best.write(str(model))
     log(f"structure-from-motion: registered {best.num_reg_images()} of {len(photos)} photos, "
@@ -94,7 +150,7 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = print) -> Path:
     return model
 
 
-def load_photos(root: str | Path, downscale: float = 1.0, log: Callable[[str], None] = print,
+def load_photos(root: str | Path, downscale: float = 1.0, log: Callable[[str], None] = _to_stderr,
                 size: int | None = None) -> Scene:
     """Run (or reuse) SfM on a folder of photos and load the result; ``root/masks`` is used when present."""
     root = Path(root)

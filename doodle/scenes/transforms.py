@@ -16,7 +16,7 @@ import numpy as np
 from ..cameras import Camera
 from ..errors import SceneError
 from .images import image_size, read_image, read_mask, scene_path
-from .scene import Scene, estimate_frame
+from .scene import MAX_COORD, Scene, estimate_frame
 
 GL_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
 SPLITS = ("train", "val", "test")
@@ -40,8 +40,8 @@ def _pose(frame: Any, path: Path, i: int) -> tuple[np.ndarray, np.ndarray]:
         c2w = np.asarray(frame["transform_matrix"], dtype=np.float64)
     except (KeyError, TypeError, ValueError):
         raise SceneError(f"{path}: frames[{i}].transform_matrix missing or not a 4x4 matrix") from None
-    if c2w.shape not in ((4, 4), (3, 4)) or not np.isfinite(c2w).all():
-        raise SceneError(f"{path}: frames[{i}].transform_matrix must be a finite 4x4 matrix")
+    if c2w.shape not in ((4, 4), (3, 4)) or not np.isfinite(c2w).all() or np.abs(c2w).max() > MAX_COORD:
+        raise SceneError(f"{path}: frames[{i}].transform_matrix must be a finite 4x4 matrix (entries within ±1e9)")
     if c2w.shape == (3, 4):
         c2w = np.vstack([c2w, [0, 0, 0, 1]])
     c2w_cv = c2w @ GL_TO_CV
@@ -124,14 +124,22 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
             v = fr.get(key, data.get(key))
             if key == "fl_y" and v is None:
                 v = fr.get("fl_x", data.get("fl_x"))
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 < v <= MAX_COORD):
                 raise SceneError(f"{path}: frames[{i}]: intrinsic {key!r} missing or invalid (shared or per frame)")
             intr[key] = float(v)
         if fr.get("camera_model", data.get("camera_model", "OPENCV")) not in ("OPENCV", "PINHOLE", "SIMPLE_PINHOLE"):
             raise SceneError(f"{path}: frames[{i}]: only pinhole camera models are supported")
         img_path = _image_path(root, fr["file_path"], f"{path}: frames[{i}].file_path")
         R, t = _pose(fr, path, i)
-        w, h = max(1, round(intr["w"] / downscale)), max(1, round(intr["h"] / downscale))
+        # The intrinsics describe the image at (w, h); the file may be a scaled copy of it (nerfstudio's
+        # images_2 …), so the working size comes from the file and the intrinsics follow.
+        iw, ih = image_size(img_path)
+        if abs(iw / ih - intr["w"] / intr["h"]) > 0.01 * iw / ih:
+            raise SceneError(f"{path}: frames[{i}]: image {img_path.name} is {iw}x{ih} but the intrinsics are for "
+                             f"{intr['w']:g}x{intr['h']:g}")
+        if i == 0:
+            full = (float(iw), float(ih))
+        w, h = max(1, round(iw / downscale)), max(1, round(ih / downscale))
         sx, sy = w / intr["w"], h / intr["h"]
         rgb, mask = read_image(img_path, (w, h))
         if isinstance(fr.get("mask_path"), str):
@@ -142,7 +150,5 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
         images.append(rgb)
         masks.append(mask if mask is not None else np.ones((h, w), bool))
         paths.append(img_path)
-    f0 = data["frames"][0]
-    full = (float(f0.get("w", data.get("w"))), float(f0.get("h", data.get("h"))))
     return Scene(cameras, images, estimate_frame(cameras, full_size=full), masks if any_mask else None, None,
                  str(root), paths)
