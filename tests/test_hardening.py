@@ -460,7 +460,7 @@ def _load_broken_copy(kind: str, own: str, spoil) -> None:
 
 
 @FUZZ
-@given(st.sampled_from(["cameras.bin", "images.bin", "points3D.bin"]), st.integers(0, 10**6),
+@given(st.sampled_from(["cameras.bin", "images.bin", "points3D.bin", "rigs.bin", "frames.bin"]), st.integers(0, 10**6),
        st.binary(min_size=1, max_size=64))
 def test_fuzz_colmap_reader(name, at, noise):
     """Random bytes spliced into a valid binary model: the scene loads, or one line; never a hang or a crash."""
@@ -566,4 +566,16 @@ def test_fuzz_reproducers_for_text_scenes(tmp_path, own, edit, why):
     assert edit(text) != text
     (scene / own).write_text(edit(text))
     with pytest.raises(SceneError, match=re.escape(why)):
+        load_scene(scene)
+
+
+def test_frames_bin_with_a_huge_count_is_refused_not_read(tmp_path):
+    """pycolmap read a frames.bin whose data-id count was corrupt for more than 10 minutes (found by fuzzing)."""
+    from doodle.scenes import load_scene
+
+    scene = _copy_scene(_template("colmap"), tmp_path / "s", "sparse/0/frames.bin")
+    data = bytearray((scene / "sparse/0/frames.bin").read_bytes())
+    data[8 + 64:8 + 68] = struct.pack("<I", 0xFFFFFFF0)  # the first frame's number of data ids
+    (scene / "sparse/0/frames.bin").write_bytes(bytes(data))
+    with pytest.raises(SceneError, match="frames.bin: corrupt COLMAP model"):
         load_scene(scene)

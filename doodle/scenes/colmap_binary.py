@@ -1,7 +1,8 @@
 """Walk a COLMAP binary model before pycolmap reads it.
 
-pycolmap trusts every count in ``cameras.bin``, ``images.bin`` and ``points3D.bin``: a corrupt count made it
-loop for ever, allocate until ``std::bad_alloc`` (97 s), or abort the process. This walk checks the whole
+pycolmap trusts every count in ``cameras.bin``, ``images.bin``, ``points3D.bin``, ``rigs.bin`` and
+``frames.bin``: a corrupt count made it loop for ever, allocate until ``std::bad_alloc`` (97 s), or abort the
+process. This walk checks the whole
 layout (every record and nested count fits in the file, camera models exist, numbers are finite, names are
 UTF-8) in one pass over the bytes, and raises a one-line :class:`SceneError` naming the file.
 
@@ -9,6 +10,9 @@ Layout (COLMAP ``src/colmap/scene/reconstruction_io.cc``), little-endian:
     cameras.bin   u64 n; n × (u32 id, i32 model, u64 width, u64 height, f64 params[model])
     images.bin    u64 n; n × (u32 id, f64 qvec[4], f64 tvec[3], u32 camera, name '\\0', u64 m, m × (f64 x, f64 y, i64 point))
     points3D.bin  u64 n; n × (u64 id, f64 xyz[3], u8 rgb[3], f64 error, u64 t, t × (u32 image, u32 point2D))
+    rigs.bin      u64 n; n × (u32 id, u32 s, [i32 type, u32 id of the reference sensor if s > 0],
+                  (s − 1) × (i32 type, u32 id, u8 has_pose, [f64 qvec[4], f64 tvec[3] if has_pose]))
+    frames.bin    u64 n; n × (u32 id, u32 rig, f64 qvec[4], f64 tvec[3], u32 d, d × (i32 type, u32 id, u64 data))
 """
 
 from __future__ import annotations
@@ -42,9 +46,10 @@ class _Bytes:
         self.at += size
         return out
 
-    def count(self, record: int) -> int:
-        """A u64 count of records of at least ``record`` bytes each, which must fit in the rest of the file."""
-        (n,) = self.take("<Q")
+    def count(self, record: int, fmt: str = "<Q") -> int:
+        """A count (u64 unless ``fmt`` says otherwise) of records of at least ``record`` bytes each, which
+        must fit in the rest of the file."""
+        (n,) = self.take(fmt)
         if n * record > len(self.data) - self.at:
             raise self.corrupt(f"claims {n} records of {record} bytes, more than the file holds")
         return n
@@ -106,12 +111,41 @@ def _points(path: Path) -> None:
     f.end()
 
 
+def _rigs(path: Path) -> None:
+    f = _Bytes(path)
+    for _ in range(f.count(8)):
+        f.take("<I")
+        sensors = f.count(8, "<I")
+        if sensors:
+            f.take("<iI")  # the reference sensor, at the rig's origin
+        for _ in range(max(sensors - 1, 0)):
+            *_, has_pose = f.take("<iIB")
+            if has_pose:
+                pose = f.take("<7d")
+                f.finite(pose, "sensor pose", MAX_COORD)
+                if sum(q * q for q in pose[:4]) < 1e-12:
+                    raise f.corrupt("zero rotation quaternion")
+    f.end()
+
+
+def _frames(path: Path) -> None:
+    f = _Bytes(path)
+    for _ in range(f.count(4 + 4 + 56 + 4)):
+        values = f.take("<II7d")
+        f.finite(values[2:], "frame pose", MAX_COORD)
+        if sum(q * q for q in values[2:6]) < 1e-12:
+            raise f.corrupt("zero rotation quaternion")
+        f.skip(16 * f.count(16, "<I"))
+    f.end()
+
+
 def check_binary_model(model_dir: Path) -> None:
     """Raise :class:`SceneError` unless every binary model file in ``model_dir`` is well formed (see above).
 
     Text models (``.txt``) are parsed by pycolmap line by line and need no walk.
     """
-    for name, walk in (("cameras.bin", _cameras), ("images.bin", _images), ("points3D.bin", _points)):
+    for name, walk in (("cameras.bin", _cameras), ("images.bin", _images), ("points3D.bin", _points),
+                       ("rigs.bin", _rigs), ("frames.bin", _frames)):
         path = model_dir / name
         if not path.exists():
             continue
