@@ -1,7 +1,7 @@
 """Long fuzz run of every reader: the property tests of ``tests/test_hardening.py`` with many more inputs.
 
 Each reader (stroke JSON, stroke binary, style, convert round trip, COLMAP binary and text models, NeRF-synthetic
-and nerfstudio transforms JSON) gets ``--examples`` generated inputs
+and nerfstudio transforms JSON, images) gets ``--examples`` generated inputs
 (default 10,000) under a 10 s per-input limit; prints the inputs tried, failures and the time per reader.
 A failure is any exception other than the reader's one-line error, or a hang.
 
@@ -26,13 +26,14 @@ def main() -> None:
     ap.add_argument("--examples", type=int, default=10_000)
     ap.add_argument("--only", nargs="*", help="run only these tests (names as below)")
     args = ap.parse_args()
-    env = {**os.environ, "DOODLE_FUZZ_EXAMPLES": str(args.examples)}
+    # Hypothesis fails any input that takes over 10 s; pytest-timeout ends a reader's run that hangs for good.
+    env = {**os.environ, "DOODLE_FUZZ_EXAMPLES": str(args.examples), "DOODLE_FUZZ_DEADLINE": "10"}
     tests = ("test_fuzz_stroke_json_reader", "test_fuzz_binary_reader", "test_fuzz_style_reader",
              "test_fuzz_convert_round_trip", "test_fuzz_colmap_reader", "test_fuzz_colmap_text_reader",
-             "test_fuzz_transforms_reader", "test_fuzz_nerfstudio_reader")
+             "test_fuzz_transforms_reader", "test_fuzz_nerfstudio_reader", "test_fuzz_image_reader")
     for test in args.only or tests:
         t = time.perf_counter()
-        p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--timeout", "36000",
+        p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--timeout", "3600",
                             "--hypothesis-show-statistics", f"tests/test_hardening.py::{test}"],
                            cwd=ROOT, env=env, capture_output=True, text=True)
         # Hypothesis reports each phase (replaying its example database, generating, shrinking): sum them.

@@ -213,3 +213,18 @@ def test_cad_part_edges_match_the_ground_truth():
     found = choose_curves(find_candidates(scene), 96)
     m = curve_metrics(found.control_points, read_abc_ground_truth(ABC / "ground_truth"))
     assert len(found.control_points) <= 48 and m["precision"] >= 0.9 and m["recall"] >= 0.85, (len(found.control_points), m)
+
+
+def test_outline_reach_claims_lines_beside_a_drawn_outline():
+    """Line pixels 2 px beside a superquadric's drawn outline count as drawn with a reach of 3 (1.5 working
+    px at the default evidence size), not with 1: otherwise a curve is chosen for them, a tick along the rim."""
+    from types import SimpleNamespace
+
+    from doodle.fit.discover import Candidates
+
+    lines = np.zeros((20, 20), bool)
+    lines[:, 12] = True  # an image line two pixels right of the outline at x = 10
+    cand = SimpleNamespace(views=[0], evidence=SimpleNamespace(lines=[lines]))
+    outline = [np.array([[10.5, y + 0.5] for y in range(20)])]
+    assert len(Candidates.pixel_ids(cand, outline, 1)) == 0
+    assert len(Candidates.pixel_ids(cand, outline, 3)) == 20

@@ -302,8 +302,11 @@ def test_sample_folders_are_not_private(tmp_path):
 
 # -- short fuzzing (CI); benchmarks/bench_fuzz.py runs ≥ 10,000 inputs per reader --------------------------
 
-FUZZ = settings(max_examples=int(os.environ.get("DOODLE_FUZZ_EXAMPLES", "150")), deadline=None,
-                suppress_health_check=list(HealthCheck))
+# DOODLE_FUZZ_DEADLINE (seconds): an input that takes longer fails (bench_fuzz.py sets 10); none in CI,
+# where a loaded machine may be slow and pytest-timeout catches real hangs.
+_DEADLINE = os.environ.get("DOODLE_FUZZ_DEADLINE")
+FUZZ = settings(max_examples=int(os.environ.get("DOODLE_FUZZ_EXAMPLES", "150")),
+                deadline=float(_DEADLINE) * 1000 if _DEADLINE else None, suppress_health_check=list(HealthCheck))
 json_values = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=8),
                            lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8), c, max_size=4),
                            max_leaves=30)
@@ -491,6 +494,24 @@ def test_fuzz_transforms_reader(data):
         path.write_text(json.dumps(doc))
 
     _load_broken_copy("nerf", "transforms_train.json", replace_a_field)
+
+
+@FUZZ
+@given(st.sampled_from(["png", "jpg"]), st.integers(0, 10**6), st.binary(min_size=1, max_size=64))
+def test_fuzz_image_reader(fmt, at, noise):
+    """Random bytes spliced into a view's PNG (or the JPEG it is converted to): loads, or one line."""
+
+    def splice(path: Path) -> None:
+        if fmt == "jpg":
+            from PIL import Image
+
+            Image.open(path).convert("RGB").save(path, format="JPEG")  # keeps the name: found by content
+        data = bytearray(path.read_bytes())
+        start = at % len(data)
+        data[start:start + len(noise)] = noise
+        path.write_bytes(bytes(data))
+
+    _load_broken_copy("nerf", "train/r_1.png", splice)
 
 
 # Tokens a broken text model may hold: numbers of every size and sign, non-numbers, names with odd characters.

@@ -300,15 +300,18 @@ class Candidates:
     polylines: int
     seconds: dict[str, float]
 
-    def pixel_ids(self, view_pixels: list[np.ndarray]) -> np.ndarray:
-        """Global ids of the line pixels within 1.5 px of given pixels ``(P_v, 2)`` (x, y) per selection view."""
+    def pixel_ids(self, view_pixels: list[np.ndarray], reach: int = 1) -> np.ndarray:
+        """Global ids of the line pixels within ``reach`` pixels (a (2 reach + 1)² square) of given pixels
+        ``(P_v, 2)`` (x, y) per selection view."""
+        r = np.arange(-reach, reach + 1)
+        offsets = np.stack(np.meshgrid(r, r, indexing="ij"), -1).reshape(-1, 2)  # (dy, dx)
         out, offset = [], 0
         for v, px in zip(self.views, view_pixels):
             lines = self.evidence.lines[v]
             H, W = lines.shape
             if len(px):
-                x = np.clip(np.floor(px[:, 0]).astype(int)[:, None] + _NEIGHBOURS[None, :, 1], 0, W - 1)
-                y = np.clip(np.floor(px[:, 1]).astype(int)[:, None] + _NEIGHBOURS[None, :, 0], 0, H - 1)
+                x = np.clip(np.floor(px[:, 0]).astype(int)[:, None] + offsets[None, :, 1], 0, W - 1)
+                y = np.clip(np.floor(px[:, 1]).astype(int)[:, None] + offsets[None, :, 0], 0, H - 1)
                 on = lines[y, x]
                 out.append((y[on] * W + x[on]).astype(np.int64) + offset)
             offset += lines.size
@@ -403,8 +406,10 @@ def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, t
     return choose_curves(cand, max_curves, min_gain, log=log)
 
 
-def outline_pixel_ids(cand: Candidates, sq, frame) -> np.ndarray:
-    """Line pixels (global ids over the selection views) that the superquadrics' visible outline draws."""
+def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1) -> np.ndarray:
+    """Line pixels (global ids over the selection views) that the superquadrics' visible outline draws, within
+    ``reach`` pixels: a smooth part's outline is only as exact as its superquadric, and lines beside it are
+    the same outline, not a place for curves (which would read as ticks along the rim)."""
     from ..exporters.drawing import DrawOptions, draw_many
     from ..strokes.model import CurveSet, StrokeSet
 
@@ -415,4 +420,4 @@ def outline_pixel_ids(cand: Candidates, sq, frame) -> np.ndarray:
         pts = [bezier_points(seg, np.linspace(0, 1, int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4))
                for op in d.layer("silhouettes") for sp in op.subpaths for seg in sp]
         pixels.append(np.concatenate(pts) if pts else np.zeros((0, 2)))
-    return cand.pixel_ids(pixels)
+    return cand.pixel_ids(pixels, reach)

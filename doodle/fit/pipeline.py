@@ -405,7 +405,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         nonlocal start, normals, curve_params
         from .discover import choose_curves, outline_pixel_ids
 
-        taken = outline_pixel_ids(candidates, sq, frame) if sq.drawn.any() else None
+        # An outline counts as drawn within 1.5 working pixels (the evidence views are finer).
+        ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
+        taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio))) if sq.drawn.any() else None
         found = choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, log=say)
         start, normals = found.control_points, found.normals
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
