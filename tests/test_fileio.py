@@ -90,9 +90,9 @@ class TestJson:
         p = tmp_path / "keep.doodle"
         write_strokes(p, random_strokes(seed=1))
         before = p.read_bytes()
-        import doodle.strokes.fileio as fio
+        import doodle.strokes.files as files
 
-        monkeypatch.setattr(fio, "dumps", lambda s: (_ for _ in ()).throw(RuntimeError("boom")))
+        monkeypatch.setattr(files, "dumps", lambda s: (_ for _ in ()).throw(RuntimeError("boom")))
         with pytest.raises(RuntimeError):
             write_strokes(p, random_strokes(seed=2))
         assert p.read_bytes() == before

@@ -1,4 +1,4 @@
-"""The ``.doodle`` stroke file: JSON v1 (DESIGN.md) with strict validation, and atomic writing.
+"""The ``.doodle`` stroke file: JSON v1 (DESIGN.md) with strict validation (files on disk: :mod:`.files`).
 
 Readers check every field and raise :class:`~doodle.errors.StrokeFileError` with a message that names the
 file and the field (``lego.doodle: curves.control_points[3][1]: expected 3 numbers``). Unknown keys of the
@@ -9,13 +9,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..atomic import write_bytes
 from ..errors import StrokeFileError
 from .model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
 
@@ -268,43 +265,3 @@ def _reject_constant(name: str) -> Any:
 
 def _first_line(exc: BaseException) -> str:
     return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-
-
-def read_strokes(path: str | os.PathLike) -> StrokeSet:
-    """Read a stroke file, JSON or compact binary (detected from its first bytes)."""
-    from .binary import MAGIC, decode  # local: binary imports this module
-
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise StrokeFileError(f"{path}: file is {size} bytes, larger than the {MAX_FILE_BYTES}-byte limit")
-        raw = path.read_bytes()
-    except IsADirectoryError:
-        raise StrokeFileError(f"{path}: is a directory, not a stroke file") from None
-    except FileNotFoundError:
-        raise StrokeFileError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise StrokeFileError(f"{path}: cannot read ({exc.strerror})") from None
-    if raw.startswith(MAGIC):
-        try:
-            return decode(raw)
-        except StrokeFileError as exc:
-            raise StrokeFileError(f"{path}: {exc}") from None
-    return loads(raw, source=str(path))
-
-
-def write_strokes(path: str | os.PathLike, strokes: StrokeSet, binary: bool | None = None) -> int:
-    """Write atomically; binary when ``binary`` is true or, if ``None``, the suffix is ``.doodleb``.
-
-    Returns:
-        The number of bytes written.
-    """
-    from .binary import encode
-
-    path = Path(path)
-    if binary is None:
-        binary = path.suffix == ".doodleb"
-    data = encode(strokes) if binary else dumps(strokes).encode("utf-8")
-    write_bytes(path, data)
-    return len(data)
