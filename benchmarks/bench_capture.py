@@ -8,7 +8,7 @@ Prints: SfM and fit time, automatic-mask IoU with the true alpha (bar: ≥ 0.9),
 true masks (bar: silhouette recall ≥ 0.8). ``--keep DIR`` keeps the photos, masks, strokes and a contact sheet.
 Skips cleanly when ``../shared/data`` is absent.
 
-Run: ``python benchmarks/bench_capture.py [--photos 60] [--keep DIR]``.
+Run: ``python benchmarks/bench_capture.py [--photos 100] [--keep DIR]``.
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def run(cmd: list[str]) -> tuple[float, str, str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--photos", type=int, default=60)
+    ap.add_argument("--photos", type=int, default=100)
     ap.add_argument("--keep", type=Path)
     args = ap.parse_args()
     if not LEGO.is_dir():

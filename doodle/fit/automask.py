@@ -96,7 +96,15 @@ def object_points(scene: Scene) -> np.ndarray:
     if len(pts) < 10:
         raise SceneError(f"{scene.source}: automatic masks found no object points near the cameras' focus")
     d = np.linalg.norm(pts - np.median(pts, axis=0), axis=1)
-    return pts[d <= 1.3 * np.percentile(d, 95)]
+    pts = pts[d <= 1.3 * np.percentile(d, 95)]
+    # Points floating off the object (chance matches) seed every view's cut as object and widen its box: a
+    # point whose 8th neighbour is 4× farther than is typical stands alone and goes.
+    if len(pts) > 50:
+        from scipy.spatial import cKDTree
+
+        gap = cKDTree(pts).query(pts, k=9)[0][:, -1]
+        pts = pts[gap <= 4 * np.median(gap)]
+    return pts
 
 
 def _grabcut(image: np.ndarray, seeds: np.ndarray, iterations: int = 4) -> np.ndarray:

@@ -23,6 +23,7 @@ from .scene import MAX_COORD, Scene, estimate_frame
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
 PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
+MIN_POINTS = 200  # SfM points seen in 3+ photos needed before those seen in 2 are left out
 
 
 @contextmanager
@@ -121,6 +122,7 @@ def _read_model(model_dir: Path):
         for i in ids:
             rec.camera(rec.image(i).camera_id)
         pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
+        tracks = np.array([p.track.length() for p in rec.points3D.values()], dtype=np.int64)
     except (RuntimeError, ValueError, IndexError, KeyError) as exc:
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise SceneError(f"{model_dir}: cannot read COLMAP model ({why})") from None
@@ -128,7 +130,16 @@ def _read_model(model_dir: Path):
         raise SceneError(f"{model_dir}: the COLMAP model has no registered images")
     if not (np.isfinite(pts).all() and np.abs(pts).max(initial=0) <= MAX_COORD):
         raise SceneError(f"{model_dir}: the COLMAP model has non-finite or huge 3D points")
-    return rec, ids, pts
+    return rec, ids, reliable_points(pts, tracks)
+
+
+def reliable_points(points: np.ndarray, track_lengths: np.ndarray, min_points: int = MIN_POINTS) -> np.ndarray:
+    """SfM points ``(P, 3)`` without those seen in fewer than 3 photos, when at least ``min_points`` remain.
+
+    Two-photo points are the ones a chance match makes (on the composited Lego photos, 165 of the 234 points
+    floating off the object); a model without tracks (``track_lengths`` 0) keeps all its points."""
+    sure = track_lengths >= 3
+    return points[sure] if sure.sum() >= min_points else points
 
 
 def _check_model(cam, model_dir: Path) -> None:
