@@ -192,3 +192,19 @@ def test_misaimed_cameras_are_flagged():
     assert not misaimed(centres, directions).any()
     forward = np.tile([0.0, 0.0, 1.0], (10, 1))
     assert not misaimed(np.c_[np.arange(10.0), np.zeros(10), np.zeros(10)], forward).any()
+
+
+def test_a_point_floating_off_the_object_is_not_an_object_point(capture):
+    """A chance match floating beside the object (within its reach, but alone) would seed every view's cut."""
+    from dataclasses import replace
+
+    from doodle.fit.automask import object_points
+
+    scene = load_colmap(capture)
+    r = scene.frame.radius
+    rng = np.random.default_rng(0)
+    body = scene.frame.center + rng.uniform(-0.3 * r, 0.3 * r, (3000, 3))  # an object's dense SfM points
+    floating = scene.frame.center + np.array([0.0, 0.0, 0.5 * r])
+    found = object_points(replace(scene, points=np.vstack([body, floating])))
+    assert not np.any(np.all(np.isclose(found, floating), axis=1))
+    assert len(found) >= 0.95 * len(body)  # the object's own points stay
