@@ -123,7 +123,7 @@ def _read_model(model_dir: Path):
             rec.camera(rec.image(i).camera_id)
         pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
         tracks = np.array([p.track.length() for p in rec.points3D.values()], dtype=np.int64)
-    except (RuntimeError, ValueError, IndexError, KeyError) as exc:
+    except Exception as exc:  # pycolmap raises bare RuntimeErrors/ValueErrors (and may raise others)
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise SceneError(f"{model_dir}: cannot read COLMAP model ({why})") from None
     if not ids:

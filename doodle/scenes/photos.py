@@ -48,9 +48,9 @@ def misaimed(centres: np.ndarray, directions: np.ndarray, min_angle: float = 0.0
     forward-facing capture), or when more than ``max_share`` would be.
     """
     n = len(centres)
-    keep = np.ones(n, bool)
     if n < 4:
-        return ~keep
+        return np.zeros(n, bool)
+    keep = np.ones(n, bool)
     for _ in range(2):
         proj = np.eye(3)[None] - directions[keep, :, None] * directions[keep, None, :]  # (K, 3, 3)
         A, b = proj.sum(axis=0), np.einsum("kij,kj->i", proj, centres[keep])
