@@ -462,19 +462,35 @@ def _load_broken_copy(kind: str, own: str, spoil) -> None:
         shutil.rmtree(tmp)
 
 
+def _splice(path: Path, at: int, noise: bytes) -> None:
+    """Overwrite the file's bytes from offset ``at`` (wrapped to its length) with ``noise``."""
+    data = bytearray(path.read_bytes())
+    start = at % len(data)
+    data[start:start + len(noise)] = noise
+    path.write_bytes(bytes(data))
+
+
+def _replace_a_field(path: Path, data, extra_keys=("x",), field_values=json_values) -> None:
+    """In a transforms JSON file, replace one field of the document or of a random frame (or a key among
+    ``extra_keys``) by a draw of ``field_values``, or one entry of that frame's matrix by random JSON."""
+    doc = json.loads(path.read_text())
+    frame = doc["frames"][data.draw(st.integers(0, len(doc["frames"]) - 1))]
+    target = data.draw(st.sampled_from([doc, frame, frame["transform_matrix"]]))
+    if isinstance(target, list):
+        row = target[data.draw(st.integers(0, len(target) - 1))]
+        row[data.draw(st.integers(0, len(row) - 1))] = data.draw(json_values)
+    else:
+        target[data.draw(st.sampled_from(sorted(target) + list(extra_keys)))] = data.draw(field_values)
+    path.write_text(json.dumps(doc))
+
+
 @FUZZ
 @given(st.sampled_from(["cameras.bin", "images.bin", "points3D.bin", "rigs.bin", "frames.bin"]), st.integers(0, 10**6),
        st.binary(min_size=1, max_size=64))
 def test_fuzz_colmap_reader(name, at, noise):
     """Random bytes spliced into a valid binary model: the scene loads, or one line; never a hang or a crash."""
 
-    def splice(path: Path) -> None:
-        data = bytearray(path.read_bytes())
-        start = at % len(data)
-        data[start:start + len(noise)] = noise
-        path.write_bytes(bytes(data))
-
-    _load_broken_copy("colmap", f"sparse/0/{name}", splice)
+    _load_broken_copy("colmap", f"sparse/0/{name}", lambda path: _splice(path, at, noise))
 
 
 @FUZZ
@@ -482,18 +498,7 @@ def test_fuzz_colmap_reader(name, at, noise):
 def test_fuzz_transforms_reader(data):
     """A random field of a valid transforms file replaced by random JSON: the scene loads, or one line."""
 
-    def replace_a_field(path: Path) -> None:
-        doc = json.loads(path.read_text())
-        frame = doc["frames"][data.draw(st.integers(0, len(doc["frames"]) - 1))]
-        target = data.draw(st.sampled_from([doc, frame, frame["transform_matrix"]]))
-        if isinstance(target, list):
-            row = target[data.draw(st.integers(0, len(target) - 1))]
-            row[data.draw(st.integers(0, len(row) - 1))] = data.draw(json_values)
-        else:
-            target[data.draw(st.sampled_from(sorted(target) + ["x"]))] = data.draw(json_values)
-        path.write_text(json.dumps(doc))
-
-    _load_broken_copy("nerf", "transforms_train.json", replace_a_field)
+    _load_broken_copy("nerf", "transforms_train.json", lambda path: _replace_a_field(path, data))
 
 
 @FUZZ
@@ -506,10 +511,7 @@ def test_fuzz_image_reader(fmt, at, noise):
             from PIL import Image
 
             Image.open(path).convert("RGB").save(path, format="JPEG")  # keeps the name: found by content
-        data = bytearray(path.read_bytes())
-        start = at % len(data)
-        data[start:start + len(noise)] = noise
-        path.write_bytes(bytes(data))
+        _splice(path, at, noise)
 
     _load_broken_copy("nerf", "train/r_1.png", splice)
 
@@ -549,19 +551,9 @@ def test_fuzz_colmap_text_reader(name, data):
 def test_fuzz_nerfstudio_reader(data):
     """A random field of a valid nerfstudio ``transforms.json`` replaced by random JSON: loads, or one line."""
 
-    def replace_a_field(path: Path) -> None:
-        doc = json.loads(path.read_text())
-        frame = doc["frames"][data.draw(st.integers(0, len(doc["frames"]) - 1))]
-        target = data.draw(st.sampled_from([doc, frame, frame["transform_matrix"]]))
-        if isinstance(target, list):
-            row = target[data.draw(st.integers(0, len(target) - 1))]
-            row[data.draw(st.integers(0, len(row) - 1))] = data.draw(json_values)
-        else:
-            key = data.draw(st.sampled_from(sorted(target) + ["x", "mask_path", "fl_y"]))
-            target[key] = data.draw(json_values | st.floats(1e-9, 1e9) | st.integers(1, 10**7))
-        path.write_text(json.dumps(doc))
-
-    _load_broken_copy("nerfstudio", "transforms.json", replace_a_field)
+    _load_broken_copy("nerfstudio", "transforms.json", lambda path: _replace_a_field(
+        path, data, extra_keys=("x", "mask_path", "fl_y"),
+        field_values=json_values | st.floats(1e-9, 1e9) | st.integers(1, 10**7)))
 
 
 # Reproducers found by the text-model and nerfstudio fuzzing.

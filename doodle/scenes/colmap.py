@@ -17,12 +17,13 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import SceneError
-from .colmap_binary import MAX_IMAGE_SIDE, check_binary_model
+from .colmap_binary import check_binary_model
 from .images import read_image, read_mask, scene_path
 from .scene import MAX_COORD, Scene, estimate_frame
 
 MODEL_FILES = ("cameras.bin", "cameras.txt")
 PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
+MAX_IMAGE_SIDE = 1 << 17  # px: larger than any camera made
 MIN_POINTS = 200  # SfM points seen in 3+ photos needed before those seen in 2 are left out
 
 
@@ -144,7 +145,7 @@ def reliable_points(points: np.ndarray, track_lengths: np.ndarray, min_points: i
 
 def _check_model(cam, model_dir: Path) -> None:
     """Refuse cameras doodle cannot turn into a pinhole view: fisheye or unknown models, and sizes or
-    parameters no camera has (text models reach here unchecked; binary ones were walked before reading)."""
+    parameters no camera has, for binary and text models alike (the binary walk checks only the layout)."""
     if cam.is_perspective_fisheye() if hasattr(cam, "is_perspective_fisheye") else "FISHEYE" in cam.model.name:
         raise SceneError(f"{model_dir}: camera model {cam.model.name} (fisheye) is not supported; "
                          "undistort the images first (colmap image_undistorter) and give that model")

@@ -2,9 +2,10 @@
 
 pycolmap trusts every count in ``cameras.bin``, ``images.bin``, ``points3D.bin``, ``rigs.bin`` and
 ``frames.bin``: a corrupt count made it loop for ever, allocate until ``std::bad_alloc`` (97 s), or abort the
-process. This walk checks the whole
-layout (every record and nested count fits in the file, camera models exist, numbers are finite, names are
-UTF-8) in one pass over the bytes, and raises a one-line :class:`SceneError` naming the file.
+process. This walk checks the whole layout (every record and nested count fits in the file, camera models
+exist, numbers are finite and within reach, rotations non-zero, names UTF-8) in one pass over the bytes, and
+raises a one-line :class:`SceneError` naming the file. What the numbers mean (image sizes, focal lengths) is
+checked after reading, for binary and text models alike (``colmap.py``).
 
 Layout (COLMAP ``src/colmap/scene/reconstruction_io.cc``), little-endian:
     cameras.bin   u64 n; n × (u32 id, i32 model, u64 width, u64 height, f64 params[model])
@@ -26,7 +27,6 @@ from .scene import MAX_COORD
 
 #: Parameters per COLMAP camera model id (``src/colmap/sensor/models.h``).
 MODEL_PARAMS = {0: 3, 1: 4, 2: 4, 3: 5, 4: 8, 5: 8, 6: 12, 7: 5, 8: 4, 9: 5, 10: 12, 11: 16}
-MAX_IMAGE_SIDE = 1 << 17
 
 
 class _Bytes:
@@ -63,6 +63,12 @@ class _Bytes:
         if not all(math.isfinite(v) and abs(v) <= bound for v in values):
             raise self.corrupt(f"non-finite or huge {what}")
 
+    def pose(self, values: tuple, what: str) -> None:
+        """A quaternion (w, x, y, z) and translation: finite, within reach, and a rotation (non-zero)."""
+        self.finite(values, what, MAX_COORD)
+        if sum(q * q for q in values[:4]) < 1e-12:
+            raise self.corrupt("zero rotation quaternion")
+
     def end(self) -> None:
         if self.at != len(self.data):
             raise self.corrupt(f"{len(self.data) - self.at} bytes after the last record")
@@ -71,15 +77,10 @@ class _Bytes:
 def _cameras(path: Path) -> None:
     f = _Bytes(path)
     for _ in range(f.count(24)):
-        _, model, width, height = f.take("<IiQQ")
+        _, model, _, _ = f.take("<IiQQ")  # id, model, width, height
         if model not in MODEL_PARAMS:
             raise f.corrupt(f"unknown camera model {model}")
-        if not (1 <= width <= MAX_IMAGE_SIDE and 1 <= height <= MAX_IMAGE_SIDE):
-            raise f.corrupt(f"image size {width} x {height}")
-        params = f.take(f"<{MODEL_PARAMS[model]}d")
-        f.finite(params, "camera parameters", MAX_COORD)
-        if params[0] <= 0:
-            raise f.corrupt(f"focal length {params[0]}")
+        f.finite(f.take(f"<{MODEL_PARAMS[model]}d"), "camera parameters", MAX_COORD)
     f.end()
 
 
@@ -87,9 +88,7 @@ def _images(path: Path) -> None:
     f = _Bytes(path)
     for _ in range(f.count(4 + 56 + 4 + 1 + 8)):
         values = f.take("<I7dI")
-        f.finite(values[1:8], "pose", MAX_COORD)
-        if sum(q * q for q in values[1:5]) < 1e-12:
-            raise f.corrupt("zero rotation quaternion")
+        f.pose(values[1:8], "pose")
         stop = f.data.find(b"\0", f.at)
         if stop < 0:
             raise f.corrupt("unterminated image name")
@@ -121,20 +120,14 @@ def _rigs(path: Path) -> None:
         for _ in range(max(sensors - 1, 0)):
             *_, has_pose = f.take("<iIB")
             if has_pose:
-                pose = f.take("<7d")
-                f.finite(pose, "sensor pose", MAX_COORD)
-                if sum(q * q for q in pose[:4]) < 1e-12:
-                    raise f.corrupt("zero rotation quaternion")
+                f.pose(f.take("<7d"), "sensor pose")
     f.end()
 
 
 def _frames(path: Path) -> None:
     f = _Bytes(path)
     for _ in range(f.count(4 + 4 + 56 + 4)):
-        values = f.take("<II7d")
-        f.finite(values[2:], "frame pose", MAX_COORD)
-        if sum(q * q for q in values[2:6]) < 1e-12:
-            raise f.corrupt("zero rotation quaternion")
+        f.pose(f.take("<II7d")[2:], "frame pose")
         f.skip(16 * f.count(16, "<I"))
     f.end()
 
