@@ -165,6 +165,26 @@ class TestFacing:
             best = [max(float(f @ face) for f in end) for face in ([0, 1.0, 0], [0, 0, 1.0])]
             assert min(best) > np.cos(np.radians(10)), end  # each face's normal, within 10°
 
+    def test_fitted_faces_keep_a_margin_for_views_between(self):
+        # a probe seen from every view within 95° of +z (a rim); hull normals every 20° in the x-z plane, none
+        # exactly +z (a voxel hull's normals are only that accurate)
+        from doodle.fit.facing import FIT_GRAZING, _best_pair
+
+        angle = lambda a: np.stack([np.sin(a), np.zeros_like(a), np.cos(a)], -1)
+        normals = angle(np.radians(np.arange(-170, 180, 20.0)))
+        views = np.radians(np.arange(-175, 180, 10.0))
+        seen = (np.abs(views) <= np.radians(95)).astype(np.int8)
+        pair = _best_pair(normals, seen, angle(views), FIT_GRAZING)
+
+        def hidden(degrees: np.ndarray) -> np.ndarray:  # as the exporters draw it from novel views
+            n = len(degrees)
+            eyes = 10 * angle(np.radians(degrees))
+            return back_facing(np.zeros((n, 3)), np.zeros(n), np.broadcast_to(pair, (n, 2, 2, 3)), eyes,
+                               np.zeros_like(eyes), np.zeros(n, bool))
+
+        assert not hidden(np.arange(-100, 101, 1.0)).any()  # up to 5° beyond the last views that see it
+        assert hidden(np.arange(130, 231, 5.0)).all()  # well behind: hidden
+
     def test_exporter_hides_back_edges_with_normals(self):
         # the top and bottom front edges of a unit cube seen from above the front: the bottom-back one hides
         edges = np.array([[[-1, -1, 1], [-0.3, -1, 1], [0.3, -1, 1], [1, -1, 1]],   # top front: faces +z, -y

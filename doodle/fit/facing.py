@@ -17,6 +17,11 @@ from scipy.spatial import cKDTree
 from ..strokes.bezier import bezier_points
 from .evidence import VoxelGrid
 
+FIT_GRAZING = 0.15
+"""Cosine by which a face may turn away from a training view and still count as facing it (about 9°):
+stricter than the exporters' 0.3 (about 17°), so a curve that the training views see stays visible from the
+views between them (see :func:`curve_normals`)."""
+
 
 def _two_faces(normals: np.ndarray, same_deg: float = 25.0, spread: float = 0.35) -> np.ndarray:
     """``(2, 3)`` face normals from the outward normals ``(K, 3)`` around a point (zeros: no direction)."""
@@ -49,13 +54,16 @@ def _two_faces(normals: np.ndarray, same_deg: float = 25.0, spread: float = 0.35
 
 
 def curve_normals(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, cameras=None, depth=None,
-                  margin: float = 0.0, radius_voxels: float = 3.5, grazing: float = 0.3) -> np.ndarray:
+                  margin: float = 0.0, radius_voxels: float = 3.5, grazing: float = FIT_GRAZING) -> np.ndarray:
     """Face normals ``(N, 2, 2, 3)`` of cubics ``(N, 4, 3)`` (start/end × face) from a carved hull.
 
     Without ``cameras``/``depth`` the hull normals near each probe are split in two groups (2-means). With
     them (the evidence's views and hull depth maps), the pair of nearby hull normals — or zeros, never
     hiding — that best reproduces the hull's own verdict on which training views see the probe is chosen
-    (a missed visible view counts double: a missing line is worse than a back line).
+    (a missed visible view counts double: a missing line is worse than a back line). A face counts as facing
+    a training view here only when turned away by less than ``grazing``, stricter than the exporters: the
+    margin keeps a curve that the training views see visible from the views between them (held-out line F:
+    chair 0.838 → 0.854, lamp 0.801 → 0.817, Lego 0.749 → 0.756).
     """
     out = np.zeros((len(controls), 2, 2, 3))
     if len(controls) == 0 or not occupied.any():
