@@ -360,6 +360,13 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
     click.echo(msg)
 
 
+def _natural_sorted(paths) -> list[Path]:
+    """Paths in name order with numbers compared as numbers (fs_2 before fs_10)."""
+    import re
+
+    return sorted(paths, key=lambda p: [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)])
+
+
 @cli.command(name="eval")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
@@ -378,13 +385,21 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
 def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, json_out: Path | None,
              gt_dir: Path | None, gt_threshold: float, masks_dir: Path | None) -> None:
     """Measure STROKES on SCENE's held-out views: line precision, silhouette recall, F-score, IoU, size;
-    with --gt-curves, also the 3D curve accuracy as NEF and EMAP report it."""
+    with --gt-curves, also the 3D curve accuracy as NEF and EMAP report it.
+
+    STROKES may also be a folder of line drawings, one SVG per held-out camera in name order (Blender
+    Freestyle's, say): they get the same line metrics, to compare with."""
     from .atomic import write_text
-    from .evaluate import evaluate, format_metrics
+    from .evaluate import evaluate, evaluate_svgs, format_metrics
     from .scenes import load_scene_at_size
     from .strokes import read_strokes
 
-    s = read_strokes(strokes)
+    drawings = _natural_sorted(strokes.glob("*.svg")) if strokes.is_dir() else None
+    if drawings is not None and gt_dir is not None:
+        raise click.UsageError("--gt-curves needs a stroke file, not a folder of drawings")
+    if drawings is not None and not drawings:
+        raise UserError(f"{strokes}: no .svg drawings in this folder")
+    s = read_strokes(strokes) if drawings is None else None
     truth = None
     if gt_dir is not None:
         from .curvemetrics import read_abc_ground_truth
@@ -395,6 +410,16 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
         from .fit.automask import with_masks
 
         scene = with_masks(scene, masks_dir, log=_log)
+    if drawings is not None:
+        if len(drawings) != len(scene.cameras):
+            raise UserError(f"{strokes}: {len(drawings)} SVG drawings for the {len(scene.cameras)} cameras of "
+                            f"{scene_dir}'s {split} split")
+        metrics = evaluate_svgs(drawings, scene, tau=tau, size=size)
+        click.echo(json.dumps(metrics, indent=1) if json_out is not None and str(json_out) == "-" else
+                   format_metrics(metrics))
+        if json_out is not None and str(json_out) != "-":
+            write_text(json_out, json.dumps(metrics, indent=1))
+        return
     metrics = evaluate(s, scene, tau=tau, size=size, truth=truth,
                        gt_threshold=gt_threshold)
     if json_out is not None and str(json_out) == "-":

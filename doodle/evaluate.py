@@ -8,16 +8,54 @@ superquadric union's silhouette IoU against the mask and the stroke file's size 
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy import ndimage
 
-from .exporters import DrawOptions, draw_many, svg_to_array, to_svg, union_mask
+from .errors import DoodleError
+from .exporters import DrawOptions, draw_many, to_svg, union_mask
 from .fit.targets import line_map, working_scene
 from .scenes import Scene
 from .strokes import StrokeSet, dumps
 from .strokes.binary import encode
+
+
+def _view_row(name: str, stroke: np.ndarray, image: np.ndarray, mask: np.ndarray | None, tau: float) -> dict[str, Any]:
+    """Line precision and silhouette recall of one view's rasterised strokes ``bool (H, W)``."""
+    ref = line_map(image, mask)
+    row: dict[str, Any] = {"view": name}
+    row["line_precision"] = float((ndimage.distance_transform_edt(~ref)[stroke] <= tau).mean()) if stroke.any() else 0.0
+    if mask is not None:
+        boundary = mask ^ ndimage.binary_erosion(mask)
+        row["silhouette_recall"] = float((ndimage.distance_transform_edt(~stroke)[boundary] <= tau).mean()) \
+            if stroke.any() and boundary.any() else 0.0
+    return row
+
+
+def _summary(rows: list[dict[str, Any]], tau: float, size: int) -> dict[str, Any]:
+    out: dict[str, Any] = {"views": len(rows), "tau_px": tau, "size_px": size}
+    for key in ("line_precision", "silhouette_recall", "silhouette_iou"):
+        vals = [r[key] for r in rows if key in r]
+        out[key] = round(float(np.mean(vals)), 4) if vals else None
+    p, r = out["line_precision"], out["silhouette_recall"]
+    out["f_score"] = round(2 * p * r / (p + r), 4) if p is not None and r is not None and p + r > 0 else None
+    return out
+
+
+def _inked(svg: str, size: tuple[int, int] | None = None) -> np.ndarray:
+    """Pixels an SVG inks ``bool (H, W)`` (dark on white), rasterised at its own size or scaled to
+    ``size = (width, height)``."""
+    import io
+
+    import cairosvg
+    from PIL import Image
+
+    out = {} if size is None else {"output_width": size[0], "output_height": size[1]}
+    png = cairosvg.svg2png(bytestring=svg.encode("utf-8"), background_color="white", **out)
+    with Image.open(io.BytesIO(png)) as im:
+        return np.asarray(im.convert("L")) < 160
 
 
 def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256, truth=None,
@@ -29,31 +67,45 @@ def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256
     rows = []
     for k, (cam, img, drawing) in enumerate(zip(work.cameras, work.images, drawings)):
         mask = work.masks[k] if work.masks is not None else None
-        svg = to_svg(drawing, 0.25)
-        stroke = svg_to_array(svg, "white")[..., :3].mean(-1) < 160
-        ref = line_map(img, mask)
-        row: dict[str, Any] = {"view": cam.name or str(k)}
-        row["line_precision"] = float((ndimage.distance_transform_edt(~ref)[stroke] <= tau).mean()) if stroke.any() else 0.0
-        if mask is not None:
-            boundary = mask ^ ndimage.binary_erosion(mask)
-            row["silhouette_recall"] = float((ndimage.distance_transform_edt(~stroke)[boundary] <= tau).mean()) \
-                if stroke.any() and boundary.any() else 0.0
-            if len(strokes.superquadrics):
-                u = union_mask(strokes.superquadrics, cam)
-                row["silhouette_iou"] = float((u & mask).sum() / max((u | mask).sum(), 1))
+        row = _view_row(cam.name or str(k), _inked(to_svg(drawing, 0.25)), img, mask, tau)
+        if mask is not None and len(strokes.superquadrics):
+            u = union_mask(strokes.superquadrics, cam)
+            row["silhouette_iou"] = float((u & mask).sum() / max((u | mask).sum(), 1))
         rows.append(row)
-    out: dict[str, Any] = {"views": len(rows), "tau_px": tau, "size_px": size}
-    for key in ("line_precision", "silhouette_recall", "silhouette_iou"):
-        vals = [r[key] for r in rows if key in r]
-        out[key] = round(float(np.mean(vals)), 4) if vals else None
-    p, r = out["line_precision"], out["silhouette_recall"]
-    out["f_score"] = round(2 * p * r / (p + r), 4) if p is not None and r is not None and p + r > 0 else None
+    out = _summary(rows, tau, size)
     out["curves"], out["superquadrics"] = len(strokes.curves), len(strokes.superquadrics)
     out["bytes_json"], out["bytes_binary"] = len(dumps(strokes).encode()), len(encode(strokes))
     if truth is not None:
         from .curvemetrics import curve_metrics
 
         out["curves_3d"] = curve_metrics(strokes.curves.control_points, truth, gt_threshold)
+    out["per_view"] = rows
+    return out
+
+
+def evaluate_svgs(svgs: list[str] | list[Path], scene: Scene, tau: float = 2.0, size: int = 256) -> dict[str, Any]:
+    """The same line metrics for any line drawings, one SVG (text, or a file) per camera of ``scene`` in
+    order (a mesh-based drawing such as Blender Freestyle's, a hand drawing), each drawn over the whole image:
+    it is scaled to the evaluation size as it is rasterised, so its strokes keep their width relative to the
+    image.
+
+    Raises:
+        DoodleError: the number of drawings differs from the cameras', or a drawing cannot be read.
+    """
+    if len(svgs) != len(scene.cameras):
+        raise DoodleError(f"{len(svgs)} drawings for {len(scene.cameras)} cameras")
+    work = working_scene(scene, size)
+    rows = []
+    for k, (cam, img, svg) in enumerate(zip(work.cameras, work.images, svgs)):
+        where = str(svg) if isinstance(svg, Path) else f"drawing {k + 1}"
+        try:
+            stroke = _inked(svg.read_text() if isinstance(svg, Path) else svg, (cam.width, cam.height))
+        except (OSError, UnicodeDecodeError) as exc:
+            raise DoodleError(f"{where}: cannot read ({getattr(exc, 'strerror', None) or exc})") from None
+        except Exception as exc:  # cairosvg raises the XML parser's errors, ValueError, …
+            raise DoodleError(f"{where}: not a drawable SVG ({type(exc).__name__}: {exc})") from None
+        rows.append(_view_row(cam.name or str(k), stroke, img, work.masks[k] if work.masks is not None else None, tau))
+    out = _summary(rows, tau, size)
     out["per_view"] = rows
     return out
 
@@ -68,9 +120,10 @@ def format_metrics(m: dict[str, Any]) -> str:
         f"line precision        {f(m['line_precision'])}",
         f"silhouette recall     {f(m['silhouette_recall'])}",
         f"F-score               {f(m['f_score'])}",
-        f"superquadric IoU      {f(m['silhouette_iou'])}",
-        f"strokes               {m['curves']} curves, {m['superquadrics']} superquadrics",
-        f"file size             {m['bytes_json']} B JSON, {m['bytes_binary']} B binary",
+        *([] if "curves" not in m else [  # a stroke file (not line drawings)
+            f"superquadric IoU      {f(m['silhouette_iou'])}",
+            f"strokes               {m['curves']} curves, {m['superquadrics']} superquadrics",
+            f"file size             {m['bytes_json']} B JSON, {m['bytes_binary']} B binary"]),
         *([] if "curves_3d" not in m else [
             f"3D curves (≤ {m['curves_3d']['threshold']:g})  precision {f(m['curves_3d']['precision'])}, recall "
             f"{f(m['curves_3d']['recall'])}, F {f(m['curves_3d']['f_score'])}, Chamfer "
