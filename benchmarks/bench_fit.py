@@ -50,7 +50,7 @@ def stages(messages: list[str]) -> str:
 
 def line(name: str, dt: float, s, m: dict) -> str:
     drawn = int(s.superquadrics.drawn.sum()) if len(s.superquadrics) else 0
-    return (f"{name:8s} {dt:6.1f} s  {len(s.curves)} curves, {len(s.superquadrics)} superquadrics ({drawn} drawn)  "
+    return (f"{name:11s} {dt:6.1f} s  {len(s.curves)} curves, {len(s.superquadrics)} superquadrics ({drawn} drawn)  "
             f"eval P {m['line_precision']:.3f} R {m['silhouette_recall']:.3f} F {m['f_score']:.3f}")
 
 
