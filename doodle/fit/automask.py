@@ -8,7 +8,8 @@
    enlarged box surely background, the points themselves surely object.
 3. **Multi-view consistency.** The per-view masks vote on a voxel grid: a voxel is object when at least 97 %
    of the views that see it say so. A pixel is object only if its ray meets this hull; one more GrabCut per
-   view, seeded by the hull's projection, settles the boundary at pixel accuracy.
+   view, seeded by the hull's projection (probably object) and the points (surely object), settles the
+   boundary at pixel accuracy and may open holes the hull still covers.
 
 On the composited Lego photos (SfM poses and points, textured backgrounds) the masks reach a mean IoU of
 0.95 with the true alpha (``benchmarks/bench_capture.py``).
@@ -180,16 +181,20 @@ def _hull_mask(cam: Camera, centres: np.ndarray, voxel: float) -> np.ndarray:
     return ndimage.binary_closing(ndimage.binary_dilation(m, _disc(r)), _disc(r))
 
 
-def _final_cut(image: np.ndarray, hull: np.ndarray) -> np.ndarray:
-    """GrabCut seeded by the hull's projection; the result never leaves the hull's neighbourhood."""
+def _final_cut(image: np.ndarray, hull: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """GrabCut seeded by the hull's projection (probably object) and the projected object points ``uv (P, 2)``
+    (surely object); the result never leaves the hull's neighbourhood. Nothing else is forced to be object,
+    so the cut can open the holes and gaps that the hull, carved from hole-filled first cuts, still covers
+    (on the Lego photos: boundary recall 0.753 → 0.773 against a core of the hull forced to be object)."""
     import cv2
 
     band = max(2.0, 0.03 * max(hull.shape))
     near = ndimage.binary_dilation(hull, _disc(band))
-    core = ndimage.binary_erosion(hull, _disc(band / 2))
     seeds = np.where(near, cv2.GC_PR_BGD, cv2.GC_BGD).astype(np.uint8)
     seeds[hull] = cv2.GC_PR_FGD
-    seeds[core] = cv2.GC_FGD
+    H, W = hull.shape
+    u, v = np.clip(uv.astype(int), 0, [W - 1, H - 1]).T
+    seeds[v, u] = cv2.GC_FGD
     return _grabcut(image, seeds) & near
 
 
@@ -222,7 +227,8 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print) -> list[np.ndar
         raise SceneError(f"{scene.source}: automatic masks disagree between views (no consistent object)")
     out = []
     for cam, img, full in zip(cams, images, scene.images):
-        m = _final_cut(img, _hull_mask(cam, centres, voxel))
+        uv, ok = _in_view(cam, pts)
+        m = _final_cut(img, _hull_mask(cam, centres, voxel), uv[ok])
         out.append(_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m)
     cover = np.mean([m.mean() for m in out])
     log(f"automatic masks: {len(pts)} object points, {len(centres)} hull voxels, object covers "
