@@ -415,13 +415,8 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
             raise UserError(f"{strokes}: {len(drawings)} SVG drawings for the {len(scene.cameras)} cameras of "
                             f"{scene_dir}'s {split} split")
         metrics = evaluate_svgs(drawings, scene, tau=tau, size=size)
-        click.echo(json.dumps(metrics, indent=1) if json_out is not None and str(json_out) == "-" else
-                   format_metrics(metrics))
-        if json_out is not None and str(json_out) != "-":
-            write_text(json_out, json.dumps(metrics, indent=1))
-        return
-    metrics = evaluate(s, scene, tau=tau, size=size, truth=truth,
-                       gt_threshold=gt_threshold)
+    else:
+        metrics = evaluate(s, scene, tau=tau, size=size, truth=truth, gt_threshold=gt_threshold)
     if json_out is not None and str(json_out) == "-":
         click.echo(json.dumps(metrics, indent=1))
         return

@@ -15,7 +15,7 @@ import numpy as np
 from scipy import ndimage
 
 from .errors import DoodleError
-from .exporters import DrawOptions, draw_many, to_svg, union_mask
+from .exporters import DrawOptions, draw_many, svg_to_array, to_svg, union_mask
 from .fit.targets import line_map, working_scene
 from .scenes import Scene
 from .strokes import StrokeSet, dumps
@@ -45,17 +45,8 @@ def _summary(rows: list[dict[str, Any]], tau: float, size: int) -> dict[str, Any
 
 
 def _inked(svg: str, size: tuple[int, int] | None = None) -> np.ndarray:
-    """Pixels an SVG inks ``bool (H, W)`` (dark on white), rasterised at its own size or scaled to
-    ``size = (width, height)``."""
-    import io
-
-    import cairosvg
-    from PIL import Image
-
-    out = {} if size is None else {"output_width": size[0], "output_height": size[1]}
-    png = cairosvg.svg2png(bytestring=svg.encode("utf-8"), background_color="white", **out)
-    with Image.open(io.BytesIO(png)) as im:
-        return np.asarray(im.convert("L")) < 160
+    """Pixels an SVG inks ``bool (H, W)`` (dark on white), at its own size or scaled to ``size = (W, H)``."""
+    return svg_to_array(svg, "white", size)[..., :3].mean(-1) < 160
 
 
 def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256, truth=None,

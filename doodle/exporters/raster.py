@@ -10,18 +10,21 @@ import numpy as np
 from PIL import Image
 
 
-def svg_to_png(svg: str, background: str | None = "white", scale: float = 1.0) -> bytes:
-    """Rasterise SVG text; ``background=None`` keeps transparency."""
-    return cairosvg.svg2png(bytestring=svg.encode("utf-8"), background_color=background, scale=scale)
+def svg_to_png(svg: str, background: str | None = "white", scale: float = 1.0,
+               size: tuple[int, int] | None = None) -> bytes:
+    """Rasterise SVG text at ``scale``, or scaled to ``size = (width, height)``; ``background=None`` keeps
+    transparency."""
+    fit = {} if size is None else {"output_width": size[0], "output_height": size[1]}
+    return cairosvg.svg2png(bytestring=svg.encode("utf-8"), background_color=background, scale=scale, **fit)
 
 
 def svg_to_pdf(svg: str) -> bytes:
     return cairosvg.svg2pdf(bytestring=svg.encode("utf-8"))
 
 
-def svg_to_array(svg: str, background: str | None = "white") -> np.ndarray:
-    """Rasterise to an ``uint8 (H, W, 4)`` array."""
-    with Image.open(io.BytesIO(svg_to_png(svg, background))) as im:
+def svg_to_array(svg: str, background: str | None = "white", size: tuple[int, int] | None = None) -> np.ndarray:
+    """Rasterise to an ``uint8 (H, W, 4)`` array (at the SVG's own size, or scaled to ``size = (W, H)``)."""
+    with Image.open(io.BytesIO(svg_to_png(svg, background, size=size))) as im:
         return np.asarray(im.convert("RGBA"))
 
 

@@ -131,6 +131,16 @@ def _disc(r: float) -> np.ndarray:
     return x * x + y * y <= r * r
 
 
+def _points_are_object(seeds: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Mark the pixels of projected object points ``uv (P, 2)`` as surely object in a GrabCut seed map."""
+    import cv2
+
+    H, W = seeds.shape
+    u, v = np.clip(uv.astype(int), 0, [W - 1, H - 1]).T
+    seeds[v, u] = cv2.GC_FGD
+    return seeds
+
+
 def _first_cut(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """GrabCut seeded by projected object points ``uv (P, 2)`` (pixels of ``image``)."""
     import cv2
@@ -144,9 +154,7 @@ def _first_cut(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
     seeds[y0:y1, x0:x1] = cv2.GC_PR_BGD
     hull = cv2.convexHull(uv.astype(np.float32)).astype(np.int32)
     cv2.fillConvexPoly(seeds, hull, int(cv2.GC_PR_FGD))
-    u, v = np.clip(uv.astype(int), 0, [W - 1, H - 1]).T
-    seeds[v, u] = cv2.GC_FGD
-    return _grabcut(image, seeds)
+    return _grabcut(image, _points_are_object(seeds, uv))
 
 
 def _voxel_hull(cams: list[Camera], masks: list[np.ndarray], pts: np.ndarray, n: int = 96
@@ -192,10 +200,7 @@ def _final_cut(image: np.ndarray, hull: np.ndarray, uv: np.ndarray) -> np.ndarra
     near = ndimage.binary_dilation(hull, _disc(band))
     seeds = np.where(near, cv2.GC_PR_BGD, cv2.GC_BGD).astype(np.uint8)
     seeds[hull] = cv2.GC_PR_FGD
-    H, W = hull.shape
-    u, v = np.clip(uv.astype(int), 0, [W - 1, H - 1]).T
-    seeds[v, u] = cv2.GC_FGD
-    return _grabcut(image, seeds) & near
+    return _grabcut(image, _points_are_object(seeds, uv)) & near
 
 
 def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -218,17 +223,14 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print) -> list[np.ndar
         c = cam.scaled(f) if f < 1 else cam
         cams.append(c)
         images.append(_resize(img, (c.width, c.height)) if f < 1 else img)
-    first = []
-    for cam, img in zip(cams, images):
-        uv, ok = _in_view(cam, pts)
-        first.append(_first_cut(img, uv[ok]) if ok.sum() >= 3 else np.zeros(img.shape[:2], bool))
+    seen = [uv[ok] for uv, ok in (_in_view(cam, pts) for cam in cams)]  # each view's object points (pixels)
+    first = [_first_cut(img, uv) if len(uv) >= 3 else np.zeros(img.shape[:2], bool) for img, uv in zip(images, seen)]
     centres, voxel = _voxel_hull(cams, first, pts)
     if len(centres) == 0:
         raise SceneError(f"{scene.source}: automatic masks disagree between views (no consistent object)")
     out = []
-    for cam, img, full in zip(cams, images, scene.images):
-        uv, ok = _in_view(cam, pts)
-        m = _final_cut(img, _hull_mask(cam, centres, voxel), uv[ok])
+    for cam, img, full, uv in zip(cams, images, scene.images, seen):
+        m = _final_cut(img, _hull_mask(cam, centres, voxel), uv)
         out.append(_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m)
     cover = np.mean([m.mean() for m in out])
     log(f"automatic masks: {len(pts)} object points, {len(centres)} hull voxels, object covers "
