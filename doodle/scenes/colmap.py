@@ -24,6 +24,7 @@ from .scene import MAX_COORD, Scene, estimate_frame
 MODEL_FILES = ("cameras.bin", "cameras.txt")
 PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
 MAX_IMAGE_SIDE = 1 << 17  # px: larger than any camera made
+MIN_FOCAL_PX = 1e-3
 MIN_POINTS = 200  # SfM points seen in 3+ photos needed before those seen in 2 are left out
 
 
@@ -156,7 +157,8 @@ def _check_model(cam, model_dir: Path) -> None:
     params = np.asarray(cam.params, dtype=np.float64)
     if not (np.isfinite(params).all() and np.abs(params).max(initial=0) <= MAX_COORD):
         raise SceneError(f"{model_dir}: camera {cam.camera_id} has non-finite or huge parameters")
-    if not (cam.focal_length_x > 0 and cam.focal_length_y > 0):
+    # a focal length far below a pixel is no camera; it would overflow the undistortion's ray directions
+    if not (cam.focal_length_x >= MIN_FOCAL_PX and cam.focal_length_y >= MIN_FOCAL_PX):
         raise SceneError(f"{model_dir}: camera {cam.camera_id} has focal length {cam.focal_length_x}")
 
 
