@@ -1,11 +1,12 @@
-"""Which superquadrics earn their outline: each must draw real silhouette that the curves do not draw.
+"""Which superquadrics earn their outline: each must make the sketch better than the curves alone draw it.
 
-A superquadric's outline is drawn when, over the training views, most of its visible contour lies on the
-images' lines — the mask boundary or an edge inside it, where one part hides another — (``min_precision``:
-it draws the object's outline, not a rounded guess across a box) and enough of it lies away from the
-curves' lines (``min_novelty``: it adds outline the curves miss). The others still hide what lies behind
-them (occluders for hidden-line removal), unless they spill out of the silhouettes, where they would hide
-lines in plain view.
+A superquadric's contour is a rounded guess; the discovered curves are exact. So an outline is drawn only
+where it pays: over the training views, the sketch's F-score (line precision against the images' lines,
+recall of the masks' boundary — what ``doodle eval`` measures on held-out views) must rise with it, with the
+curves chosen beside it (they leave lines the outline already draws). A smooth part whose rim no curve can
+draw wins; a rounded box across a CAD part's sharp edges loses, because the edges it would displace draw the
+same outline better. The others still hide what lies behind them (occluders for hidden-line removal), unless
+they spill out of the silhouettes, where they would hide lines in plain view.
 """
 
 from __future__ import annotations
@@ -19,6 +20,22 @@ from ..cameras import Camera
 from ..strokes.bezier import bezier_points
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
 
+MIN_OUTLINE_GAIN = 0.002
+"""A superquadric's outline is drawn when it raises the training views' sketch F by at least this much."""
+
+
+def _ink(img: np.ndarray, ops) -> np.ndarray:
+    """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
+    H, W = img.shape
+    for op in ops:
+        for sp in op.subpaths:
+            for seg in sp:
+                n = int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4
+                p = np.floor(bezier_points(seg, np.linspace(0, 1, n))).astype(int)
+                ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < W) & (p[:, 1] < H)
+                img[p[ok, 1], p[ok, 0]] = True
+    return img
+
 
 def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
     """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)``."""
@@ -26,39 +43,30 @@ def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable
     for cam, d in zip(cameras, drawings):
         per: dict[int, np.ndarray] = {}
         for op in d.layer(layer):
-            img = per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool))
-            for sp in op.subpaths:
-                for seg in sp:
-                    n = int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4
-                    p = np.floor(bezier_points(seg, np.linspace(0, 1, n))).astype(int)
-                    ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < cam.width) & (p[:, 1] < cam.height)
-                    img[p[ok, 1], p[ok, 0]] = True
+            _ink(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
         out.append(per)
     return out
 
 
-def outline_scores(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],
-                   lines: list[np.ndarray], tau_px: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """Per superquadric: ``(precision, novelty)`` of its visible contour over the views (see the module doc);
-    ``lines`` are the views' line maps (:func:`~doodle.fit.evidence.object_lines`)."""
+def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarray], masks: list[np.ndarray],
+                 tau_px: int = 2) -> tuple[float, float, float]:
+    """``(F, precision, recall)`` of a sketch drawn in ``cameras``, pooled over the views, as ``doodle eval``
+    measures it: precision is the share of inked pixels within ``tau_px`` of the views' ``lines``, recall the
+    share of the ``masks``' boundary pixels within ``tau_px`` of ink."""
     from ..exporters.drawing import DrawOptions, draw_many
 
-    drawings = draw_many(StrokeSet(frame, curves, sq), cameras,
-                         DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
-    sil = raster_layer(drawings, cameras, "silhouettes", lambda pid: int(pid.split("-")[1]))
-    crv = raster_layer(drawings, cameras, "curves", lambda pid: 0)
-    on_rim = np.zeros(len(sq))
-    novel = np.zeros(len(sq))
-    total = np.zeros(len(sq))
-    for per, cur, lm in zip(sil, crv, lines):
-        rim = ndimage.binary_dilation(lm, iterations=tau_px)
-        drawn = ndimage.binary_dilation(cur[0], iterations=tau_px) if 0 in cur else np.zeros_like(lm)
-        for i, img in per.items():
-            total[i] += img.sum()
-            on_rim[i] += (img & rim).sum()
-            novel[i] += (img & ~drawn).sum()
-    safe = np.maximum(total, 1)
-    return np.where(total > 0, on_rim / safe, 0.0), np.where(total > 0, novel / safe, 0.0)
+    drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
+    ink = on = rim = reached = 0
+    for cam, d, lm, m in zip(cameras, drawings, lines, masks):
+        img = _ink(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
+        boundary = m ^ ndimage.binary_erosion(m)
+        ink += int(img.sum())
+        on += int((img & ndimage.binary_dilation(lm, iterations=tau_px)).sum())
+        rim += int(boundary.sum())
+        if img.any():
+            reached += int((ndimage.binary_dilation(img, iterations=tau_px) & boundary).sum())
+    p, r = on / max(ink, 1), reached / max(rim, 1)
+    return (2 * p * r / (p + r) if p + r > 0 else 0.0), p, r
 
 
 def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndarray], size: int = 96,
@@ -82,14 +90,17 @@ def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndar
 
 
 def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],
-                  lines: list[np.ndarray], masks: list[np.ndarray], min_precision: float = 0.7,
-                  min_novelty: float = 0.6, min_inside: float = 0.9,
+                  lines: list[np.ndarray], masks: list[np.ndarray], min_inside: float = 0.9,
+                  min_gain: float = MIN_OUTLINE_GAIN, curves_beside: Callable[[SuperquadricSet], CurveSet] | None = None,
                   log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
     """Decide each superquadric's role (see the module doc): a drawn outline, an occluder only, or dropped.
 
     A superquadric whose silhouette spills out of the masks (less than ``min_inside`` of it inside) would
-    hide lines that are in plain view, so it is dropped. Of the rest, those whose contour fails
-    ``min_precision`` or ``min_novelty`` keep hiding what is behind them, but draw nothing.
+    hide lines that are in plain view, so it is dropped. The others are tried as drawn outlines one by one,
+    the most promising first (each one's :func:`sketch_score` beside ``curves``); one is drawn when the
+    sketch's F over ``cameras`` rises by at least ``min_gain`` with it. ``curves_beside(sq)`` gives the curves
+    that would be chosen beside ``sq``'s drawn outlines (they avoid lines an outline already draws), so an
+    outline that only displaces sharp curves gains nothing; without it, ``curves`` stay as they are.
     """
     if len(sq) == 0:
         return sq
@@ -100,13 +111,33 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     sq = sq.subset(keep)
     if len(sq) == 0:
         return sq
-    precision, novelty = outline_scores(sq, curves, frame, cameras, lines)
-    drawn = (precision >= min_precision) & (novelty >= min_novelty)
-    for i in np.flatnonzero(~drawn):
-        log(f"superquadrics: one hides what is behind it but draws no outline ({precision[i]:.0%} of its outline "
-            f"on image lines, {novelty[i]:.0%} new beside the curves)")
-    sq.outline = drawn
-    return sq
+
+    def with_outlines(drawn: np.ndarray) -> SuperquadricSet:
+        return SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, drawn.copy())
+
+    def score(drawn: np.ndarray, beside: CurveSet) -> float:
+        return sketch_score(StrokeSet(frame, beside, sq.subset(drawn)), cameras, lines, masks)[0]
+
+    none = np.zeros(len(sq), bool)
+    base = curves_beside(with_outlines(none)) if curves_beside is not None else curves
+    best = without = score(none, base)
+    alone = np.array([score(np.eye(len(sq), dtype=bool)[i], base) for i in range(len(sq))])
+    drawn = none
+    for i in np.argsort(-alone):
+        if alone[i] < without + min_gain:
+            log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {alone[i]:.3f} with it, "
+                f"{without:.3f} with the curves alone)")
+            continue
+        trial = drawn.copy()
+        trial[i] = True
+        f = score(trial, curves_beside(with_outlines(trial)) if curves_beside is not None else base)
+        if f >= best + min_gain:
+            log(f"superquadrics: one draws its outline (sketch F {best:.3f} → {f:.3f})")
+            drawn, best = trial, f
+        else:
+            log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {f:.3f} with it and "
+                f"the curves beside it, {best:.3f} without)")
+    return with_outlines(drawn)
 
 
 def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],

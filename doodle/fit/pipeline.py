@@ -29,9 +29,11 @@ from .targets import build_targets, working_scene
 
 CHECKPOINT_VERSION = 2
 MAX_CHECKPOINT_BYTES = 1 << 30
-#: Options that must match to resume a checkpoint.
-#: Gain (share of line pixels) of the strong curves that superquadric outlines are compared with.
+#: Gain (share of line pixels) of the strong curves, whose outline coverage decides whether superquadrics
+#: are fitted at all.
 STRONG_GAIN = 0.002
+OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
+#: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
                "evidence_size", "evidence_voxels", "discovery_min_gain")
 
@@ -400,15 +402,24 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             })
         return save
 
-    def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
-        """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
-        nonlocal start, normals, curve_params
+    def choose_beside(sq: SuperquadricSet, polish: bool, log: Callable[[str], None] = lambda m: None):
+        """The choice of curves with ``sq``'s drawn outlines counted as drawn."""
         from .discover import choose_curves, outline_pixel_ids
 
         # An outline counts as drawn within 1.5 working pixels (the evidence views are finer).
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio))) if sq.drawn.any() else None
-        found = choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, log=say)
+        return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish, log=log)
+
+    def curves_beside(sq: SuperquadricSet) -> CurveSet:
+        found = choose_beside(sq, polish=False)
+        return CurveSet(found.control_points, cfg.width_px, found.normals)
+
+    def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
+        """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
+        nonlocal start, normals, curve_params
+
+        found = choose_beside(sq, polish=True, log=say)
         start, normals = found.control_points, found.normals
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
         if len(sq) and not sq.drawn.all():
@@ -453,9 +464,12 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             from .evidence import object_lines
             from .outlines import keep_outlines
 
-            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame, work.cameras,
-                                     [object_lines(i, m) for i, m in zip(work.images, work.masks)], work.masks,
-                                     log=say)
+            views = np.unique(np.linspace(0, len(work) - 1, min(OUTLINE_VIEWS, len(work))).round().astype(int))
+            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame,
+                                     [work.cameras[v] for v in views],
+                                     [object_lines(work.images[v], work.masks[v]) for v in views],
+                                     [work.masks[v] for v in views],
+                                     curves_beside=curves_beside if candidates is not None else None, log=say)
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)
         say(f"superquadrics: {len(final_sq)}, {int(final_sq.drawn.sum())} drawn (training silhouette IoU "

@@ -1,0 +1,97 @@
+"""Which superquadrics draw their outline (``doodle.fit.outlines``): only those that raise the sketch's F."""
+
+import itertools
+
+import numpy as np
+from scipy import ndimage
+
+from doodle.cameras import orbit_cameras
+from doodle.exporters.visibility import union_mask
+from doodle.fit.outlines import keep_outlines, sketch_score
+from doodle.strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
+
+FRAME = SceneFrame(radius=1.0, camera=DefaultCamera(distance=4.0, elevation_deg=25.0, width=96, height=96))
+CAMS = orbit_cameras(FRAME, 8)
+
+
+def _one(scale, shape) -> SuperquadricSet:
+    return SuperquadricSet(np.array([scale], float), np.array([shape], float), np.array([[1.0, 0, 0, 0]]),
+                           np.zeros((1, 3)))
+
+
+def _cube_edges(h: float) -> CurveSet:
+    """The 12 edges of the cube [-h, h]³ as straight cubics, with the normals of the two faces at each."""
+    controls, normals = [], []
+    for axis in range(3):
+        a, b = [k for k in range(3) if k != axis]
+        for sa, sb in itertools.product((-1, 1), repeat=2):
+            p0, p1 = np.zeros(3), np.zeros(3)
+            p0[axis], p1[axis] = -h, h
+            p0[a] = p1[a] = sa * h
+            p0[b] = p1[b] = sb * h
+            controls.append([p0 + (p1 - p0) * t for t in (0, 1 / 3, 2 / 3, 1)])
+            na, nb = np.eye(3)[a] * sa, np.eye(3)[b] * sb
+            normals.append([[na, nb], [na, nb]])
+    return CurveSet(np.array(controls), normals=np.array(normals))
+
+
+def _views(solid: SuperquadricSet) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """A solid's masks in every camera, and its outlines as the line maps."""
+    masks = [union_mask(solid, c) for c in CAMS]
+    return masks, [m ^ ndimage.binary_erosion(m) for m in masks]
+
+
+def test_sketch_score_is_one_for_the_exact_outline_and_zero_for_nothing():
+    ball = _one([0.6, 0.6, 0.6], [1.0, 1.0])
+    masks, lines = _views(ball)
+    f, p, r = sketch_score(StrokeSet(FRAME, CurveSet(), ball), CAMS, lines, masks)
+    assert p > 0.95 and r > 0.95 and f > 0.95
+    assert sketch_score(StrokeSet(FRAME, CurveSet(), SuperquadricSet()), CAMS, lines, masks) == (0.0, 0.0, 0.0)
+
+
+def test_a_smooth_part_no_curve_draws_gets_its_outline():
+    ball = _one([0.6, 0.6, 0.6], [1.0, 1.0])
+    masks, lines = _views(ball)
+    messages = []
+    kept = keep_outlines(ball, CurveSet(), FRAME, CAMS, lines, masks, log=messages.append)
+    assert kept.drawn.tolist() == [True], messages
+
+
+def test_a_rounded_guess_across_sharp_edges_draws_nothing():
+    """A cube whose 12 edges the curves draw exactly: a ball inside it (wholly in the silhouettes, so it is
+    kept as an occluder) would add a circle off the lines and nothing the edges miss."""
+    h = 0.5
+    edges = _cube_edges(h)
+    cube = _one([h, h, h], [0.05, 0.05])
+    masks = [union_mask(cube, c) for c in CAMS]
+    # the line maps: the cube's boundary and its visible edges (as the curves draw them)
+    from doodle.exporters.drawing import DrawOptions, draw_many
+    from doodle.fit.outlines import raster_layer
+
+    drawings = draw_many(StrokeSet(FRAME, edges, SuperquadricSet()), CAMS, DrawOptions(hidden="hide"))
+    ink = raster_layer(drawings, CAMS, "curves", lambda pid: 0)
+    lines = [(m ^ ndimage.binary_erosion(m)) | per.get(0, np.zeros_like(m)) for m, per in zip(masks, ink)]
+    messages = []
+    kept = keep_outlines(_one([h, h, h], [1.0, 1.0]), edges, FRAME, CAMS, lines, masks, log=messages.append)
+    assert len(kept) == 1 and kept.drawn.tolist() == [False], messages
+
+
+def test_an_outline_is_judged_with_the_curves_chosen_beside_it():
+    """``curves_beside`` gives the curves that would be chosen next to the drawn outlines: when the outline
+    would displace curves that draw the silhouette better, it is not drawn."""
+    h = 0.5
+    edges = _cube_edges(h)
+    cube = _one([h, h, h], [0.05, 0.05])
+    masks, lines = _views(cube)
+    rounded = _one([0.55, 0.55, 0.55], [0.6, 0.6])  # a rounded box: its outline lies near the cube's
+    seen = []
+
+    def beside(sq: SuperquadricSet) -> CurveSet:
+        seen.append(sq.drawn.copy())
+        return edges if not sq.drawn.any() else CurveSet()  # the outline would take the edges' place
+
+    alone = keep_outlines(rounded, CurveSet(), FRAME, CAMS, lines, masks)
+    judged = keep_outlines(rounded, edges, FRAME, CAMS, lines, masks, curves_beside=beside)
+    assert alone.drawn.tolist() == [True]  # beside no curves it is the best outline there is
+    assert judged.drawn.tolist() == [False]
+    assert any(d.any() for d in seen) and any(not d.any() for d in seen)
