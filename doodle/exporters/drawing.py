@@ -9,6 +9,7 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import DoodleError
+from ..strokes.bezier import bezier_points
 from ..strokes.model import StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
@@ -46,6 +47,12 @@ class PathOp:
     subpaths: list[np.ndarray] = field(default_factory=list)
     """Each ``(K, 4, 2)``: pieces joined end to end."""
     closed: list[bool] = field(default_factory=list)
+
+    def points(self) -> np.ndarray:
+        """Points ``(P, 2)`` along the path, about two per pixel of length (to rasterise it or match pixels)."""
+        pts = [bezier_points(seg, np.linspace(0, 1, int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4))
+               for sp in self.subpaths for seg in sp]
+        return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 
 @dataclass

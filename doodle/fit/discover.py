@@ -415,9 +415,5 @@ def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1) -> np.ndarray
 
     cams = [cand.evidence.cameras[v] for v in cand.views]
     drawings = draw_many(StrokeSet(frame, CurveSet(), sq), cams, DrawOptions(curves=False, hidden="hide", tolerance=0.5))
-    pixels = []
-    for d in drawings:
-        pts = [bezier_points(seg, np.linspace(0, 1, int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4))
-               for op in d.layer("silhouettes") for sp in op.subpaths for seg in sp]
-        pixels.append(np.concatenate(pts) if pts else np.zeros((0, 2)))
+    pixels = [np.concatenate([op.points() for op in d.layer("silhouettes")] or [np.zeros((0, 2))]) for d in drawings]
     return cand.pixel_ids(pixels, reach)

@@ -28,12 +28,9 @@ def _ink(img: np.ndarray, ops) -> np.ndarray:
     """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
     H, W = img.shape
     for op in ops:
-        for sp in op.subpaths:
-            for seg in sp:
-                n = int(np.abs(np.diff(seg, axis=0)).sum()) * 2 + 4
-                p = np.floor(bezier_points(seg, np.linspace(0, 1, n))).astype(int)
-                ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < W) & (p[:, 1] < H)
-                img[p[ok, 1], p[ok, 0]] = True
+        p = np.floor(op.points()).astype(int)
+        ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < W) & (p[:, 1] < H)
+        img[p[ok, 1], p[ok, 0]] = True
     return img
 
 
