@@ -162,9 +162,7 @@ def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samp
     S = ndimage.gaussian_filter(ev.score.astype(np.float32), smooth)
     vol = torch.from_numpy(S)[None, None]  # (1, 1, X, Y, Z)
     shape = torch.tensor(S.shape, dtype=torch.float32)
-    origin = torch.tensor(ev.grid.origin, dtype=torch.float32)
-    h = float(ev.grid.voxel)
-    c = torch.tensor((controls - ev.grid.origin) / h, dtype=torch.float32, requires_grad=True)  # voxel units
+    c = torch.tensor(ev.grid.coordinates(controls), dtype=torch.float32, requires_grad=True)  # voxel units
     t = torch.linspace(0, 1, samples)[:, None]
     basis = torch.cat([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], -1)
     opt = torch.optim.Adam([c], lr=lr_voxels)
@@ -179,8 +177,7 @@ def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samp
         opt.zero_grad()
         loss.backward()
         opt.step()
-    del origin
-    return c.detach().numpy().astype(np.float64) * h + ev.grid.origin
+    return ev.grid.centres(c.detach().numpy().astype(np.float64))
 
 
 def bridge_gaps(controls: np.ndarray, ev: Evidence, max_gap: float, min_evidence: float,

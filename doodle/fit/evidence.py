@@ -18,7 +18,7 @@ so the cost follows the hull's surface, not its volume.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
@@ -30,19 +30,61 @@ from ..scenes import Scene
 
 @dataclass
 class VoxelGrid:
-    """An axis-aligned grid: voxel ``(i, j, k)`` has centre ``origin + (i, j, k) · voxel``."""
+    """A grid fitted to the object: voxel ``(i, j, k)`` has centre ``origin + (i, j, k) · voxel @ axes``.
+
+    ``axes`` ``(3, 3)``: the grid's unit axes in world coordinates, one per row (the identity for a grid
+    aligned with the world's axes).
+    """
 
     origin: np.ndarray
     voxel: float
     shape: tuple[int, int, int]
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
 
     def centres(self, ijk: np.ndarray) -> np.ndarray:
-        """World centres ``(P, 3)`` of integer voxel indices ``(P, 3)``."""
-        return self.origin + ijk * self.voxel
+        """World centres ``(P, 3)`` of voxel indices ``(P, 3)`` (fractional indices give points between)."""
+        return self.origin + (ijk * self.voxel) @ self.axes
+
+    def coordinates(self, points: np.ndarray) -> np.ndarray:
+        """Fractional voxel indices ``(P, 3)`` of world points: the inverse of :meth:`centres`."""
+        return ((points - self.origin) @ self.axes.T) / self.voxel
 
     def index(self, points: np.ndarray) -> np.ndarray:
         """Nearest voxel indices ``(P, 3)`` of world points (not clipped to the grid)."""
-        return np.rint((points - self.origin) / self.voxel).astype(np.int64)
+        return np.rint(self.coordinates(points)).astype(np.int64)
+
+    def to_world(self, vectors: np.ndarray) -> np.ndarray:
+        """Directions ``(..., 3)`` along the grid's axes → world directions."""
+        return vectors @ self.axes
+
+
+def fit_axes(points: np.ndarray, up: np.ndarray, prefer_world: float = 0.9, steps: int = 36) -> np.ndarray:
+    """Axes ``(3, 3)`` (rows) of a box around ``points`` ``(P, 3)`` that is small: one axis along ``up``, the
+    other two turned about it to the angle giving the smallest box.
+
+    An object posed by structure-from-motion lies at any angle to the world's axes, and a box aligned
+    with them can hold half again its volume: the voxels, sized by the box, would be that much coarser. The
+    world's axes are kept unless the turned box is smaller than ``prefer_world`` × theirs (objects
+    modelled upright in a world frame keep their grid exactly).
+    """
+    def volume(axes: np.ndarray) -> float:
+        q = points @ axes.T
+        return float(np.prod(q.max(axis=0) - q.min(axis=0)))
+
+    world = np.eye(3)
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    a = np.eye(3)[int(np.argmin(np.abs(up)))]
+    e1 = np.cross(up, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(up, e1)
+    best, best_volume = world, volume(world)
+    for theta in np.linspace(0, 0.5 * np.pi, steps, endpoint=False):
+        x = np.cos(theta) * e1 + np.sin(theta) * e2
+        axes = np.stack([x, np.cross(up, x), up])
+        v = volume(axes)
+        if v < best_volume * (prefer_world if best is world else 1.0):
+            best, best_volume = axes, v
+    return best
 
 
 @dataclass
@@ -221,18 +263,20 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
     if not maybe0.any():
         raise ValueError("the masks do not agree on any voxel (wrong poses or masks?)")
     cell0 = 2 * r / n0
-    lo = pts0[maybe0].min(axis=0) - cell0
-    hi = pts0[maybe0].max(axis=0) + cell0
+    axes = fit_axes(pts0[maybe0], f.up)
+    q = pts0[maybe0] @ axes.T  # box in the grid's frame
+    lo = q.min(axis=0) - cell0
+    hi = q.max(axis=0) + cell0
     voxel = float((hi - lo).max()) / max_voxels
     step = 2 ** levels
     shape = tuple(int(np.ceil((hi[a] - lo[a]) / (voxel * step))) * step for a in range(3))
-    grid = VoxelGrid(lo + 0.5 * voxel, voxel, shape)  # type: ignore[arg-type]
+    grid = VoxelGrid((lo + 0.5 * voxel) @ axes, voxel, shape, axes)  # type: ignore[arg-type]
     occupied = np.zeros(shape, bool)
     # coarse-to-fine: cells of `step` voxels, split while undecided
     coarse = np.stack(np.meshgrid(*[np.arange(s // step) for s in shape], indexing="ij"), -1).reshape(-1, 3) * step
     size = step
     while True:
-        centres = grid.origin + (coarse + (size - 1) / 2) * voxel
+        centres = grid.centres(coarse + (size - 1) / 2)
         full, maybe = _classify(centres, np.sqrt(3) * size * voxel / 2 if size > 1 else 0.0, cams, sdf, min_seen)
         for i, j, k in coarse[full]:
             occupied[i:i + size, j:j + size, k:k + size] = True

@@ -73,7 +73,7 @@ def curve_normals(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, c
     g = np.stack([ndimage.sobel(smooth, axis=a) for a in range(3)], -1)[tuple(surface.T)]
     ok = np.linalg.norm(g, axis=1) > 1e-6
     surface, g = surface[ok], g[ok]
-    outward = -g / np.linalg.norm(g, axis=1, keepdims=True)
+    outward = grid.to_world(-g / np.linalg.norm(g, axis=1, keepdims=True))
     tree = cKDTree(grid.centres(surface))
     probes = bezier_points(controls, np.array([1 / 6, 5 / 6])).reshape(-1, 3)  # (N·2, 3)
     near = tree.query_ball_point(probes, radius_voxels * grid.voxel)

@@ -64,7 +64,8 @@ def ridge_points(score: np.ndarray, grid: VoxelGrid, threshold: float, smooth: f
     delta = -(g0 / l0)[:, None] * e0 - (g1 / l1)[:, None] * e1
     keep = ridge & (np.abs(delta).max(axis=1) <= 0.5)
     strength = c + 0.5 * (g * delta).sum(1)
-    return RidgePoints(grid.centres(ijk[keep] + delta[keep]), e2[keep].astype(np.float64), strength[keep].astype(np.float64))
+    return RidgePoints(grid.centres(ijk[keep] + delta[keep]), grid.to_world(e2[keep].astype(np.float64)),
+                       strength[keep].astype(np.float64))
 
 
 def trace_ridges(ridges: RidgePoints, voxel: float, step_radius: float = 2.0, gap: float = 5.0,
