@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from doodle.evaluate import evaluate, evaluate_svgs  # noqa: E402
+from doodle.evaluate import evaluate, evaluate_svgs, natural_sorted  # noqa: E402
 from doodle.exporters import ExportOptions, export_views  # noqa: E402
 from doodle.fit import FitConfig, fit  # noqa: E402
 from doodle.samples import load_ground_truth, write_sample  # noqa: E402
@@ -112,7 +112,7 @@ def main() -> None:
             res = fit(load_scene(d), FitConfig(**extra), log=quiet, progress=False)
             dt = time.perf_counter() - t0
             test = load_scene_at_size(d, "test", 256)
-            fs = evaluate_svgs(sorted((d / "freestyle").glob("fs_*.svg")), test)
+            fs = evaluate_svgs(natural_sorted((d / "freestyle").glob("fs_*.svg")), test)
             print(line(name, dt, res.strokes, evaluate(res.strokes, test)) + f"  (Freestyle from the mesh: P "
                   f"{fs['line_precision']:.3f} R {fs['silhouette_recall']:.3f} F {fs['f_score']:.3f})", flush=True)
             sheet(res.strokes, test.cameras, sheets, name)

@@ -360,13 +360,6 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
     click.echo(msg)
 
 
-def _natural_sorted(paths) -> list[Path]:
-    """Paths in name order with numbers compared as numbers (fs_2 before fs_10)."""
-    import re
-
-    return sorted(paths, key=lambda p: [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", p.name)])
-
-
 @cli.command(name="eval")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
@@ -394,7 +387,9 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
     from .scenes import load_scene_at_size
     from .strokes import read_strokes
 
-    drawings = _natural_sorted(strokes.glob("*.svg")) if strokes.is_dir() else None
+    from .evaluate import natural_sorted
+
+    drawings = natural_sorted(strokes.glob("*.svg")) if strokes.is_dir() else None
     if drawings is not None and gt_dir is not None:
         raise click.UsageError("--gt-curves needs a stroke file, not a folder of drawings")
     if drawings is not None and not drawings:

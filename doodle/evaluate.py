@@ -49,6 +49,18 @@ def _inked(svg: str, size: tuple[int, int] | None = None) -> np.ndarray:
     return svg_to_array(svg, "white", size)[..., :3].mean(-1) < 160
 
 
+def natural_sorted(paths) -> list[Path]:
+    """Paths in name order with numbers compared as numbers (``fs_2`` before ``fs_10``): the order of a
+    folder of drawings, one per view.
+
+    >>> [p.name for p in natural_sorted([Path("fs_10.svg"), Path("fs_2.svg"), Path("fs_1.svg")])]
+    ['fs_1.svg', 'fs_2.svg', 'fs_10.svg']
+    """
+    import re
+
+    return sorted(paths, key=lambda p: [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", Path(p).name)])
+
+
 def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256, truth=None,
              gt_threshold: float = 0.02) -> dict[str, Any]:
     """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px); with

@@ -566,6 +566,8 @@ def _far_translation(text: str) -> str:
 @pytest.mark.parametrize("own, edit, why", [
     ("sparse/0/cameras.txt", lambda t: t.replace(" 48 36 ", " 0 36 ", 1), "image size 0 x 36"),
     ("sparse/0/cameras.txt", lambda t: re.sub(r" 48 36 \S+ ", " 48 36 1e-300 ", t, count=1), "focal length 1e-300"),
+    ("sparse/0/cameras.txt", lambda t: re.sub(r"SIMPLE_RADIAL 48 36 (\S+) (\S+) (\S+) \S+", r"PINHOLE 48 36 \1 1e-300 \2 \3",
+                                              t, count=1), "focal length 1e-300"),  # fy alone
     ("sparse/0/images.txt", lambda t: "\n".join(ln for k, ln in enumerate(t.splitlines()) if k != 9) + "\n",
      "cannot read COLMAP model"),
     ("transforms.json", lambda t: t.replace('"h": 32', '"h": 298619099.0'), "intrinsics are for 32x2.98619e+08"),

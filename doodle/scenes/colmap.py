@@ -159,7 +159,8 @@ def _check_model(cam, model_dir: Path) -> None:
         raise SceneError(f"{model_dir}: camera {cam.camera_id} has non-finite or huge parameters")
     # a focal length far below a pixel is no camera; it would overflow the undistortion's ray directions
     if not (cam.focal_length_x >= MIN_FOCAL_PX and cam.focal_length_y >= MIN_FOCAL_PX):
-        raise SceneError(f"{model_dir}: camera {cam.camera_id} has focal length {cam.focal_length_x}")
+        focal = min(cam.focal_length_x, cam.focal_length_y)
+        raise SceneError(f"{model_dir}: camera {cam.camera_id} has focal length {focal} px (below {MIN_FOCAL_PX} px)")
 
 
 def _check_pose(R: np.ndarray, t: np.ndarray, name: str, model_dir: Path) -> None:
