@@ -198,3 +198,31 @@ def test_two_photo_points_are_left_out_when_enough_others_remain():
     assert len(reliable_points(pts, tracks)) == 750
     assert len(reliable_points(pts, tracks, min_points=800)) == 1000  # too few sure ones: keep everything
     assert len(reliable_points(pts, np.zeros(1000, int))) == 1000  # a model written without tracks
+
+
+@pytest.mark.parametrize("k, kept", [(0.0, False), (0.05, True)])
+def test_distortion_is_kept_only_when_the_features_need_it(k, kept, capfd):
+    # SfM fits a radial distortion whatever the lens: a lens without one (k = 0) gets a small one fitted anyway
+    # and loses it again; a real one (0.05: about 4 px at the frame's edge) keeps it
+    import pycolmap
+
+    from doodle.scenes.photos import without_spurious_distortion
+
+    opt = pycolmap.SyntheticDatasetOptions()
+    opt.num_rigs, opt.num_frames_per_rig, opt.num_points3D = 1, 8, 200
+    opt.camera_params = [1280.0, 512.0, 384.0, k]
+    rec = pycolmap.synthesize_dataset(opt)
+    noise = pycolmap.SyntheticNoiseOptions()
+    noise.point2D_stddev = 0.5
+    pycolmap.synthesize_noise(noise, rec)
+    for cam in rec.cameras.values():  # SfM's own fit: distortion free, from a wrong start
+        cam.params = np.r_[np.asarray(cam.params)[:3], 0.02 if k == 0 else 0.0]
+    pycolmap.bundle_adjustment(rec, pycolmap.BundleAdjustmentOptions())
+    capfd.readouterr()
+    assert all(abs(float(np.asarray(c.params)[3]) - k) < 0.01 for c in rec.cameras.values())
+    out = without_spurious_distortion(rec)
+    fitted = [float(np.asarray(c.params)[3]) for c in out.cameras.values()]
+    assert (all(abs(v - k) < 0.01 for v in fitted) if kept else fitted == [0.0] * len(fitted)), fitted
+    assert out.num_reg_images() == rec.num_reg_images()
+    printed = capfd.readouterr()
+    assert "Iterations" not in printed.out + printed.err  # the refit's own log stays quiet

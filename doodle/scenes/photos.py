@@ -67,6 +67,46 @@ def misaimed(centres: np.ndarray, directions: np.ndarray, min_angle: float = 0.0
     return ~keep
 
 
+def without_spurious_distortion(rec, log: Callable[[str], None] = lambda m: None):
+    """The reconstruction refitted with its lens distortion fixed at zero, when the distortion does not earn
+    its parameters; else ``rec`` itself.
+
+    COLMAP's default camera for photos fits a radial distortion whatever the lens. When the features sit near
+    the image centre (an object in the middle of the frame) the distortion trades off against the focal
+    length and is poorly fixed: on the Lego photos (renders, no distortion) it fitted k = −0.021, which made
+    images and poses disagree by about a pixel and weakened the 3D edge votes (silhouette recall against the
+    true masks 0.743 → 0.764 without it; reprojection error 0.514 px with it, 0.506 px without). The test is
+    Akaike's: the distortion stays when it lowers the squared reprojection error, summed over the
+    observations, by more than two noise variances per parameter — a real lens's distortion does by far.
+    """
+    import pycolmap
+
+    cams = [c for c in rec.cameras.values() if len(c.extra_params_idxs())
+            and np.any(np.asarray(c.params)[c.extra_params_idxs()] != 0)]
+    observations = rec.compute_num_observations()
+    before = rec.compute_mean_reprojection_error()
+    if not cams or observations == 0 or not before > 0:
+        return rec
+    trial = pycolmap.Reconstruction(rec)
+    for cam in trial.cameras.values():
+        params = np.array(cam.params)
+        params[cam.extra_params_idxs()] = 0.0
+        cam.params = params
+    options = pycolmap.BundleAdjustmentOptions()
+    options.refine_extra_params = False
+    options.print_summary = False  # Ceres prints its summary whatever COLMAP's log level
+    with quiet_pycolmap():
+        pycolmap.bundle_adjustment(trial, options)
+    after = trial.compute_mean_reprojection_error()
+    n_params = sum(len(c.extra_params_idxs()) for c in cams)
+    # squared errors ≈ observations × mean², in units of the noise variance (≈ the fuller model's mean²)
+    if not np.isfinite(after) or observations * (after**2 - before**2) / before**2 > 2 * n_params:
+        return rec
+    log(f"structure-from-motion: no lens distortion (reprojection error {after:.3f} px without it, "
+        f"{before:.3f} px with it)")
+    return trial
+
+
 def drop_misaimed(rec, log: Callable[[str], None]) -> None:
     """Deregister the photos of ``rec`` (a ``pycolmap.Reconstruction``) that :func:`misaimed` flags."""
     ids = sorted(rec.reg_image_ids())
@@ -143,6 +183,7 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
         raise SceneError(f"{root}: structure-from-motion failed: registered {n} of {len(photos)} photos "
                          f"(photos need overlap and texture; or give poses as a COLMAP model)")
     drop_misaimed(best, log)
+    best = without_spurious_distortion(best, log)
     model.mkdir(parents=True, exist_ok=True)
     best.write(str(model))
     log(f"structure-from-motion: registered {best.num_reg_images()} of {len(photos)} photos, "
