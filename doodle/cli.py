@@ -383,11 +383,9 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
     STROKES may also be a folder of line drawings, one SVG per held-out camera in name order (Blender
     Freestyle's, say): they get the same line metrics, to compare with."""
     from .atomic import write_text
-    from .evaluate import evaluate, evaluate_svgs, format_metrics
+    from .evaluate import evaluate, evaluate_svgs, format_metrics, natural_sorted
     from .scenes import load_scene_at_size
     from .strokes import read_strokes
-
-    from .evaluate import natural_sorted
 
     drawings = natural_sorted(strokes.glob("*.svg")) if strokes.is_dir() else None
     if drawings is not None and gt_dir is not None:

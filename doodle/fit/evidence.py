@@ -241,7 +241,8 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
                levels: int = 3, sdf: list[np.ndarray] | None = None) -> tuple[VoxelGrid, np.ndarray]:
     """Visual hull on a grid fitted to the object: ``(grid, occupied bool (X, Y, Z))``.
 
-    A 48³ pass over the bounding sphere finds the object's box; the fine grid covers that box with
+    A 48³ pass over the bounding sphere finds the object's box, turned about the scene's up to fit it
+    (:func:`fit_axes`); the fine grid covers that box with
     ``max_voxels`` voxels along its longest side and is carved coarse to fine (``levels`` halvings).
     ``sdf``: the masks' signed distances (see :class:`ViewMaps`), when already computed.
     """

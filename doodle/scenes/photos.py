@@ -95,8 +95,11 @@ def without_spurious_distortion(rec, log: Callable[[str], None] = lambda m: None
     options = pycolmap.BundleAdjustmentOptions()
     options.refine_extra_params = False
     options.print_summary = False  # Ceres prints its summary whatever COLMAP's log level
-    with quiet_pycolmap():
-        pycolmap.bundle_adjustment(trial, options)
+    try:
+        with quiet_pycolmap():
+            pycolmap.bundle_adjustment(trial, options)
+    except Exception:  # pycolmap's errors vary; the refit is only an improvement, so SfM's own model stays
+        return rec
     after = trial.compute_mean_reprojection_error()
     n_params = sum(len(c.extra_params_idxs()) for c in cams)
     # squared errors ≈ observations × mean², in units of the noise variance (≈ the fuller model's mean²)
