@@ -200,14 +200,17 @@ def test_two_photo_points_are_left_out_when_enough_others_remain():
     assert len(reliable_points(pts, np.zeros(1000, int))) == 1000  # a model written without tracks
 
 
+@pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("k, kept", [(0.0, False), (0.05, True)])
-def test_distortion_is_kept_only_when_the_features_need_it(k, kept, capfd):
+def test_distortion_is_kept_only_when_the_features_need_it(k, kept, seed, capfd):
     # SfM fits a radial distortion whatever the lens: a lens without one (k = 0) gets a small one fitted anyway
-    # and loses it again; a real one (0.05: about 4 px at the frame's edge) keeps it
+    # and loses it again; a real one (0.05: about 4 px at the frame's edge) keeps it. Several scenes, because
+    # a criterion that keeps a spurious distortion one time in six (Akaike's did) passes one scene by luck
     import pycolmap
 
     from doodle.scenes.photos import without_spurious_distortion
 
+    pycolmap.set_random_seed(seed)  # a fixed synthetic scene: the test is about the criterion, not luck
     opt = pycolmap.SyntheticDatasetOptions()
     opt.num_rigs, opt.num_frames_per_rig, opt.num_points3D = 1, 8, 200
     opt.camera_params = [1280.0, 512.0, 384.0, k]
@@ -219,10 +222,10 @@ def test_distortion_is_kept_only_when_the_features_need_it(k, kept, capfd):
         cam.params = np.r_[np.asarray(cam.params)[:3], 0.02 if k == 0 else 0.0]
     pycolmap.bundle_adjustment(rec, pycolmap.BundleAdjustmentOptions())
     capfd.readouterr()
-    assert all(abs(float(np.asarray(c.params)[3]) - k) < 0.01 for c in rec.cameras.values())
+    assert all(abs(float(np.asarray(c.params)[3]) - k) < 0.02 for c in rec.cameras.values())  # ±0.01 typical
     out = without_spurious_distortion(rec)
     fitted = [float(np.asarray(c.params)[3]) for c in out.cameras.values()]
-    assert (all(abs(v - k) < 0.01 for v in fitted) if kept else fitted == [0.0] * len(fitted)), fitted
+    assert (all(abs(v - k) < 0.02 for v in fitted) if kept else fitted == [0.0] * len(fitted)), fitted
     assert out.num_reg_images() == rec.num_reg_images()
     printed = capfd.readouterr()
     assert "Iterations" not in printed.out + printed.err  # the refit's own log stays quiet
