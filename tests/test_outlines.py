@@ -90,8 +90,50 @@ def test_an_outline_is_judged_with_the_curves_chosen_beside_it():
         seen.append(sq.drawn.copy())
         return edges if not sq.drawn.any() else CurveSet()  # the outline would take the edges' place
 
-    alone = keep_outlines(rounded, CurveSet(), FRAME, CAMS, lines, masks)
-    judged = keep_outlines(rounded, edges, FRAME, CAMS, lines, masks, curves_beside=beside)
+    # (its outline runs a pixel or two outside the cube's: the precision gate is not what this test is about)
+    alone = keep_outlines(rounded, CurveSet(), FRAME, CAMS, lines, masks, min_precision=0.0)
+    judged = keep_outlines(rounded, edges, FRAME, CAMS, lines, masks, min_precision=0.0, curves_beside=beside)
     assert alone.drawn.tolist() == [True]  # beside no curves it is the best outline there is
     assert judged.drawn.tolist() == [False]
     assert any(d.any() for d in seen) and any(not d.any() for d in seen)
+
+
+def test_an_outline_that_strays_from_the_lines_is_not_drawn():
+    """A flat box drawn by nothing else: an ellipsoid of the box's size raises the sketch's F (its outline
+    reaches much of the box's), but most of its outline cuts across the box's corners, off every line. It
+    reads as a blob, so it hides what is behind it and draws nothing."""
+    from doodle.fit.outlines import outline_precision
+
+    slab = _one([0.8, 0.8, 0.2], [0.05, 0.05])
+    masks, lines = _views(slab)
+    blob = _one([0.8, 0.8, 0.2], [1.0, 1.0])
+    exact = outline_precision(slab, FRAME, CAMS, lines, masks)
+    loose = outline_precision(blob, FRAME, CAMS, lines, masks)
+    assert exact[0] > 0.95 and loose[0] < 0.7, (exact, loose)
+    assert keep_outlines(blob, CurveSet(), FRAME, CAMS, lines, masks, min_precision=0.0).drawn.tolist() == [True]
+    messages = []
+    kept = keep_outlines(blob, CurveSet(), FRAME, CAMS, lines, masks, log=messages.append)
+    assert kept.drawn.tolist() == [False] and any("lies on the object's lines" in m for m in messages), messages
+
+
+def test_drawn_outlines_are_judged_again_once_the_superquadrics_are_settled():
+    """The pipeline's last look (after occluders that hid parts of an outline are dropped): an outline that
+    now strays is taken back and the curves are chosen again; a faithful one is left alone."""
+    from doodle.fit.pipeline import _recheck_outlines
+
+    slab = _one([0.8, 0.8, 0.2], [0.05, 0.05])
+    masks, lines = _views(slab)
+    judge = (CAMS, lines, masks)
+    chosen_again = []
+
+    def finish(sq: SuperquadricSet) -> SuperquadricSet:
+        chosen_again.append(sq.drawn.copy())
+        return sq
+
+    blob = _one([0.8, 0.8, 0.2], [1.0, 1.0])
+    blob.drawn[:] = True
+    messages = []
+    out = _recheck_outlines(blob, FRAME, judge, finish, messages.append)
+    assert out.drawn.tolist() == [False] and [d.tolist() for d in chosen_again] == [[False]], messages
+    slab.drawn[:] = True
+    assert _recheck_outlines(slab, FRAME, judge, finish, messages.append) is slab and len(chosen_again) == 1
