@@ -166,7 +166,7 @@ def _check_model(cam, model_dir: Path) -> None:
 def _check_pose(R: np.ndarray, t: np.ndarray, name: str, model_dir: Path) -> None:
     """A pose must be a finite rotation and a translation within the scene's reach."""
     if not (np.isfinite(R).all() and np.isfinite(t).all() and np.abs(t).max() <= MAX_COORD
-            and abs(np.linalg.det(R) - 1) < 1e-3):
+            and np.abs(R).max() <= 1 + 1e-3 and abs(np.linalg.det(R) - 1) < 1e-3):  # (entries first: no det overflow)
         raise SceneError(f"{model_dir}: image {name} has an invalid pose (rotation or translation)")
 
 
