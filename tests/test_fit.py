@@ -295,7 +295,8 @@ def test_sfm_poses_real_photos(lego_dir, tmp_path, capfd):
     worst = ", ".join(f"{scene.cameras[i].name} {off[i]:.3f}" for i in np.argsort(-off)[:5])
     # RMS error of the centres < 3 % of their spread (measured ≈ 1 %); the worst cameras name a misregistration
     assert np.sqrt(disparity) < 0.03, f"{len(est)} cameras; worst: {worst}"
-    assert len(capfd.readouterr().err.splitlines()) < 10
+    err = capfd.readouterr().err
+    assert len(err.splitlines()) < 10 and "bundle_adjustment.cc" not in err, err  # doodle's own summaries only
 
 
 def test_unreadable_photo_is_named(tmp_path):

@@ -229,3 +229,28 @@ def test_distortion_is_kept_only_when_the_features_need_it(k, kept, seed, capfd)
     assert out.num_reg_images() == rec.num_reg_images()
     printed = capfd.readouterr()
     assert "Iterations" not in printed.out + printed.err  # the refit's own log stays quiet
+
+
+def test_quiet_pycolmap_keeps_colmaps_chatter_off_the_terminal_but_not_errors(capfd):
+    # pycolmap's bundle adjustment logs its INFO lines whatever glog's level; other output still shows
+    import sys
+
+    import pycolmap
+
+    from doodle.scenes.colmap import quiet_pycolmap
+
+    pycolmap.set_random_seed(0)
+    opt = pycolmap.SyntheticDatasetOptions()
+    opt.num_rigs, opt.num_frames_per_rig, opt.num_points3D = 1, 4, 50
+    rec = pycolmap.synthesize_dataset(opt)
+    options = pycolmap.BundleAdjustmentOptions()
+    options.print_summary = False
+    capfd.readouterr()
+    with quiet_pycolmap():
+        pycolmap.bundle_adjustment(rec, options)
+        print("E1123 12:00:00.000000 1 x.cc:1] a real error", file=sys.stderr, flush=True)
+    printed = capfd.readouterr()
+    assert "bundle_adjustment.cc" not in printed.err and "Elapsed time" not in printed.err, printed.err
+    assert "a real error" in printed.err
+    pycolmap.bundle_adjustment(rec, options)  # and the terminal is the terminal again
+    assert "Global bundle adjustment" in capfd.readouterr().err

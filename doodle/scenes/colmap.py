@@ -9,6 +9,10 @@ EXIF orientation not applied (an image whose size only matches its camera once E
 
 from __future__ import annotations
 
+import os
+import re
+import sys
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -28,18 +32,39 @@ MIN_FOCAL_PX = 1e-3
 MIN_POINTS = 200  # SfM points seen in 3+ photos needed before those seen in 2 are left out
 
 
+#: A glog line of COLMAP's below ERROR (``I1123 12:00:00.000 123 file.cc:46] …``, date with or without the year).
+_GLOG_CHATTER = re.compile(r"^[IW]\d{4}(\d{4})? \d\d:\d\d:\d\d")
+
+
 @contextmanager
 def quiet_pycolmap() -> Iterator[None]:
     """Keep COLMAP's own log (thousands of INFO lines per reconstruction, and a warning about threads on
     every run) off the terminal; errors still show. doodle prints its own one-line summaries, and failures
-    become one-line errors."""
+    become one-line errors.
+
+    Raising glog's level silences most of it, but some calls (pycolmap's bundle adjustment) log whatever the
+    level, so the process's stderr is also caught while pycolmap runs, and all but glog's INFO and WARNING
+    lines are passed on afterwards."""
     import pycolmap
 
     before = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = int(pycolmap.logging.ERROR)
+    sys.stderr.flush()
+    saved = os.dup(2)
     try:
-        yield
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+                sink.seek(0)
+                kept = [ln for ln in sink.read().decode(errors="replace").splitlines() if not _GLOG_CHATTER.match(ln)]
+                if kept:
+                    sys.stderr.write("\n".join(kept) + "\n")
     finally:
+        os.close(saved)
         pycolmap.logging.minloglevel = before
 
 
