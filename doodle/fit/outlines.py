@@ -6,8 +6,9 @@ recall of the masks' boundary — what ``doodle eval`` measures on held-out view
 curves chosen beside it (they leave lines the outline already draws). A smooth part whose rim no curve can
 draw wins; a rounded box across a CAD part's sharp edges loses, because the edges it would displace draw the
 same outline better. And most of the outline must lie on the object's lines: an ellipsoid across a boxy
-part can raise F by covering much of its outline, yet it reads as a blob. The others still hide what lies behind them (occluders for hidden-line removal), unless
-they spill out of the silhouettes, where they would hide lines in plain view.
+part can raise F by covering much of its outline, yet it reads as a blob. The others still hide what lies
+behind them (occluders for hidden-line removal), unless they spill out of the silhouettes, where they would
+hide lines in plain view.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ MIN_OUTLINE_GAIN = 0.002
 MIN_OUTLINE_PRECISION = 0.7
 """...and when at least this share of its own outline lies on the object's lines or outline (within 0.8 % of
 the image size). A rounded guess across a boxy part can still raise F by covering much of the outline, but
-it reads as a blob: on the Lego photos the cab's and bucket's ellipsoids had 0.51 and 0.62, while the
+it reads as a blob: on the Lego photos the ellipsoids across the cab and bucket had 0.47–0.64, while the
 outlines that draw smooth parts well had 0.73–1.0 (Cheburashka, the rocker arm, the snowman, the lamp)."""
 
 

@@ -16,6 +16,7 @@ from scipy import ndimage
 
 from .. import __version__
 from ..atomic import atomic_path
+from ..cameras import Camera
 from ..errors import DoodleError
 from ..scenes import Scene
 from ..strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
@@ -267,12 +268,13 @@ def _preview(strokes_fn: Callable[[], StrokeSet], cameras, out_dir: Path, tag: s
         contact_sheet(ims, cell=192).save(tmp, format="PNG")
 
 
-def _recheck_outlines(sq: SuperquadricSet, frame, judge, finish: Callable[[SuperquadricSet], SuperquadricSet],
-                      say: Callable[[str], None]) -> SuperquadricSet:
-    """Judge the drawn outlines again among the superquadrics that stay: once occluders that hid parts of an
-    outline are dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its
-    outline on the object's lines to 62 %); one that now strays draws no outline, and the curves are chosen
-    again without it."""
+def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
+                      judge: tuple[list[Camera], list[np.ndarray], list[np.ndarray]],
+                      finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None]) -> SuperquadricSet:
+    """Judge the drawn outlines again among the superquadrics that stay (``judge``: the cameras, line maps and
+    masks of :func:`~doodle.fit.outlines.keep_outlines`): once occluders that hid parts of an outline are
+    dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its outline on the
+    object's lines to 64 %). One that now strays draws no outline, and ``finish`` chooses the curves again."""
     precision = outline_precision(sq, frame, *judge)
     stray = sq.drawn & (precision < MIN_OUTLINE_PRECISION)
     if not stray.any():
