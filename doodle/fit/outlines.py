@@ -76,23 +76,30 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
 
 def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
                       masks: list[np.ndarray], tau: float = 0.008) -> np.ndarray:
-    """Per superquadric, the share of its own visible outline (drawn alone, the others hiding what lies behind
-    them) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks' boundary,
-    pooled over ``cameras``."""
+    """Per superquadric, the share of its own visible outline (the others hiding what lies behind it) within
+    ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks' boundary, pooled over
+    ``cameras``."""
     from ..exporters.drawing import DrawOptions, draw_many
 
+    # Hiding uses every superquadric whether drawn or not, so one drawing of all of them, split by owner,
+    # gives each one's outline as drawn alone.
+    every = SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, np.ones(len(sq), bool))
+    drawings = draw_many(StrokeSet(frame, CurveSet(), every), cameras,
+                         DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
-    for i in range(len(sq)):
-        alone = SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, np.arange(len(sq)) == i)
-        drawings = draw_many(StrokeSet(frame, CurveSet(), alone), cameras,
-                             DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
-        for cam, d, lm, m in zip(cameras, drawings, lines, masks):
-            img = _ink(np.zeros((cam.height, cam.width), bool), d.layer("silhouettes"))
-            reach = max(1, round(tau * max(cam.width, cam.height)))
-            near = ndimage.binary_dilation(lm | (m ^ ndimage.binary_erosion(m)), iterations=reach)
+    for cam, per, lm, m in zip(cameras, raster_layer(drawings, cameras, "silhouettes", _silhouette_owner),
+                               lines, masks):
+        reach = max(1, round(tau * max(cam.width, cam.height)))
+        near = ndimage.binary_dilation(lm | (m ^ ndimage.binary_erosion(m)), iterations=reach)
+        for i, img in per.items():
             on[i] += (img & near).sum()
             ink[i] += img.sum()
     return on / np.maximum(ink, 1)
+
+
+def _silhouette_owner(path_id: str) -> int:
+    """The superquadric that drew a silhouette path (ids ``silhouette-IIII-K``, see ``exporters.drawing``)."""
+    return int(path_id.split("-")[1])
 
 
 def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndarray], size: int = 96,
