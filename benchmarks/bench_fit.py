@@ -9,12 +9,15 @@ Bars (issue 9, stroke discovery), all with default settings on 2 CPU cores:
   precision ≥ 0.85 and F ≥ 0.88 (the issue's target for real scenes), beside Blender Freestyle's drawings of
   the same test views from the exact mesh (the mesh-based ceiling), scored the same way.
 
-Run: ``python benchmarks/bench_fit.py [--only snowman,lamp,chair,abc,blender,lego] [--sheet DIR] [--iterations N]``
-(``--iterations``: distance-field steps after discovery, default the fit's).
+Run: ``python benchmarks/bench_fit.py [--only snowman,lamp,chair,abc,blender,lego] [--sheet DIR] [--iterations N]
+[--set FIELD=VALUE ...]`` (``--iterations``: distance-field steps after discovery, default the fit's; ``--set``: any
+other :class:`~doodle.fit.FitConfig` field, e.g. ``--set evidence_voxels=256``, to measure a setting on every scene).
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import resource
 import sys
 import tempfile
@@ -61,10 +64,35 @@ def sheet(strokes, cameras, out: Path | None, name: str) -> None:
         export_views(strokes, cameras, out / name, ExportOptions(svg=False, sheet=out / f"{name}.png"))
 
 
+def config_setting(text: str) -> tuple[str, object]:
+    """``FIELD=VALUE`` → ``(field, value)`` for :class:`FitConfig`: numbers and true/false are parsed, the rest
+    stays text (``auto``, an objective's name).
+
+    >>> config_setting("evidence_voxels=256"), config_setting("superquadrics=auto")
+    (('evidence_voxels', 256), ('superquadrics', 'auto'))
+    """
+    key, sep, raw = text.partition("=")
+    names = [f.name for f in dataclasses.fields(FitConfig)]
+    if not sep or key not in names:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected FIELD=VALUE with FIELD one of {', '.join(names)}")
+    for parse in (int, float):
+        try:
+            return key, parse(raw)
+        except ValueError:
+            pass
+    return key, {"true": True, "false": False}.get(raw.lower(), raw)
+
+
 def main() -> None:
-    only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
-    sheets = Path(sys.argv[sys.argv.index("--sheet") + 1]) if "--sheet" in sys.argv else None
-    extra = {"iterations": int(sys.argv[sys.argv.index("--iterations") + 1])} if "--iterations" in sys.argv else {}
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", type=lambda s: s.split(","), help="comma-separated: snowman,chair,lamp,abc,blender,lego")
+    ap.add_argument("--sheet", type=Path, help="write each scene's stroke file and contact sheet here")
+    ap.add_argument("--iterations", type=int, help="distance-field steps after discovery (default: the fit's)")
+    ap.add_argument("--set", dest="settings", type=config_setting, action="append", default=[], metavar="FIELD=VALUE",
+                    help="any other FitConfig field, e.g. evidence_voxels=256 (repeatable)")
+    args = ap.parse_args()
+    only, sheets = args.only, args.sheet
+    extra = dict(args.settings) | ({"iterations": args.iterations} if args.iterations is not None else {})
     want = lambda name: only is None or name in only  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
         for name in ("snowman", "chair", "lamp"):

@@ -233,6 +233,20 @@ def _bench(name: str):
     return module
 
 
+def test_bench_fit_settings_reach_the_fit_config():
+    """``bench_fit.py --set FIELD=VALUE`` measures any setting; a field FitConfig lacks is refused by name."""
+    import argparse
+
+    setting = _bench("bench_fit").config_setting
+    assert setting("evidence_voxels=256") == ("evidence_voxels", 256)
+    assert setting("thin=0.08") == ("thin", 0.08)
+    assert setting("discover=false") == ("discover", False)
+    assert setting("superquadrics=auto") == ("superquadrics", "auto")
+    for bad in ("evidence_voxel=256", "evidence_voxels"):
+        with pytest.raises(argparse.ArgumentTypeError, match="FIELD=VALUE"):
+            setting(bad)
+
+
 def test_kill_9_during_export_leaves_the_folder_old_or_new(tmp_path):
     bench = _bench("bench_kill")
     write_strokes(tmp_path / "s.doodle", random_strokes(0, 24, 6))
