@@ -91,6 +91,9 @@ def main() -> None:
     ap.add_argument("--set", dest="settings", type=config_setting, action="append", default=[], metavar="FIELD=VALUE",
                     help="any other FitConfig field, e.g. evidence_voxels=256 (repeatable)")
     args = ap.parse_args()
+    scenes = ("snowman", "chair", "lamp", "abc", "blender", "lego")
+    if args.only and set(args.only) - set(scenes):
+        ap.error(f"--only: unknown scene(s) {', '.join(sorted(set(args.only) - set(scenes)))}; choose from {','.join(scenes)}")
     only, sheets = args.only, args.sheet
     extra = dict(args.settings) | ({"iterations": args.iterations} if args.iterations is not None else {})
     want = lambda name: only is None or name in only  # noqa: E731

@@ -233,7 +233,7 @@ def _bench(name: str):
     return module
 
 
-def test_bench_fit_settings_reach_the_fit_config():
+def test_bench_fit_settings_parse_and_refuse_unknown_fields():
     """``bench_fit.py --set FIELD=VALUE`` measures any setting; a field FitConfig lacks is refused by name."""
     import argparse
 
