@@ -13,6 +13,7 @@ hide lines in plain view.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -83,7 +84,7 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
 
     # Hiding uses every superquadric whether drawn or not, so one drawing of all of them, split by owner,
     # gives each one's outline as drawn alone.
-    every = SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, np.ones(len(sq), bool))
+    every = replace(sq, outline=np.ones(len(sq), bool))
     drawings = draw_many(StrokeSet(frame, CurveSet(), every), cameras,
                          DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
@@ -147,15 +148,12 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     if len(sq) == 0:
         return sq
 
-    def with_outlines(drawn: np.ndarray) -> SuperquadricSet:
-        return SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, drawn.copy())
-
     def score(drawn: np.ndarray, beside: CurveSet) -> float:
         return sketch_score(StrokeSet(frame, beside, sq.subset(drawn)), cameras, lines, masks)[0]
 
     precision = outline_precision(sq, frame, cameras, lines, masks)
     none = np.zeros(len(sq), bool)
-    base = curves_beside(with_outlines(none)) if curves_beside is not None else curves
+    base = curves_beside(replace(sq, outline=none)) if curves_beside is not None else curves
     best = without = score(none, base)
     alone = np.array([score(np.eye(len(sq), dtype=bool)[i], base) for i in range(len(sq))])
     drawn = none
@@ -170,14 +168,14 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
             continue
         trial = drawn.copy()
         trial[i] = True
-        f = score(trial, curves_beside(with_outlines(trial)) if curves_beside is not None else base)
+        f = score(trial, curves_beside(replace(sq, outline=trial)) if curves_beside is not None else base)
         if f >= best + min_gain:
             log(f"superquadrics: one draws its outline (sketch F {best:.3f} → {f:.3f})")
             drawn, best = trial, f
         else:
             log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {f:.3f} with it and "
                 f"the curves beside it, {best:.3f} without)")
-    return with_outlines(drawn)
+    return replace(sq, outline=drawn)
 
 
 def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
@@ -282,7 +282,7 @@ def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
     for i in np.flatnonzero(stray):
         say(f"superquadrics: one draws no outline after all (only {precision[i]:.0%} of it lies on the object's "
             "lines once the other superquadrics are settled)")
-    return finish(SuperquadricSet(sq.scale, sq.shape, sq.rotation, sq.translation, sq.drawn & ~stray))
+    return finish(replace(sq, outline=sq.drawn & ~stray))
 
 
 def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.PathLike | None = None,
@@ -362,8 +362,6 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             say(f"superquadrics: fitting up to {cfg.max_superquadrics} ({score:.0%} of the image lines are straight)")
     sq_scene = work
     if wants_sq and discovering:
-        from dataclasses import replace
-
         from .volume import thick_volume
 
         volume = thick_volume(work, cfg.thin)
