@@ -1,4 +1,5 @@
-"""Geometry helpers for quality tests: distances between sampled curves and ground-truth edge segments."""
+"""Geometry helpers for quality tests: distances between sampled curves and ground-truth edge segments, and the
+axes of a sample scene's thin parts."""
 
 from __future__ import annotations
 
@@ -59,3 +60,35 @@ def edge_scores(control: np.ndarray, gt_edges: np.ndarray, tol: float) -> tuple[
     d, _ = cKDTree(cp).query(gp)
     recall = float(gw[d <= tol].sum() / gw.sum())
     return precision, recall
+
+
+def thin_axes(primitives, max_radius: float = 0.05) -> list[tuple[str, np.ndarray]]:
+    """``(kind, segments (K, 2, 3))`` of every thin part: the axis of a cylinder (a leg, a pole) and the centre
+    circle of a torus (a cable's loop) whose tube radius is at most ``max_radius``."""
+    out = []
+    for p in primitives:
+        if p.kind == "cylinder" and p.radius <= max_radius:
+            ends = np.array([[0.0, 0, 0], [0, 0, p.height]])
+        elif p.kind == "torus" and p.minor <= max_radius:
+            a = np.linspace(0, 2 * np.pi, 73)
+            ends = np.stack([p.major * np.cos(a), p.major * np.sin(a), 0 * a], -1)
+        else:
+            continue
+        world = ends @ p.R.T + p.center
+        out.append((p.kind, np.stack([world[:-1], world[1:]], 1)))
+    return out
+
+
+def hole_points(primitives, margin: float = 0.05) -> np.ndarray:
+    """Points ``(P, 3)`` filling the holes of the tori among ``primitives`` (each centre disc, short of the tube
+    by a tube radius) that lie more than ``margin`` outside every other primitive: what no superquadric may
+    cover (a mug's handle half inside its body leaves the outer half of its hole)."""
+    out = []
+    for ring in (p for p in primitives if p.kind == "torus"):
+        r, a = np.meshgrid(np.linspace(0, ring.major - 2 * ring.minor, 12), np.linspace(0, 2 * np.pi, 36))
+        pts = ring.center + np.stack([r * np.cos(a), r * np.sin(a), 0 * a], -1).reshape(-1, 3) @ ring.R.T
+        for other in primitives:
+            if other is not ring:
+                pts = pts[~other.contains(pts, margin)]
+        out.append(pts)
+    return np.concatenate(out) if out else np.zeros((0, 3))

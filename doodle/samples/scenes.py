@@ -19,7 +19,7 @@ from PIL import Image
 from ..atomic import atomic_folder
 from ..cameras import Camera, look_at
 from ..errors import DoodleError
-from .primitives import Box, Cone, Cylinder, Primitive, Sphere
+from .primitives import Box, Cone, Cylinder, Primitive, Sphere, Torus
 from .raycast import render_rgba
 
 FOV_DEG = 40.0
@@ -70,7 +70,42 @@ def lamp() -> list[Primitive]:
     ]
 
 
-SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp}
+def _rod(a: np.ndarray, b: np.ndarray, radius: float, color: tuple[float, float, float]) -> Cylinder:
+    """A capped cylinder from point ``a`` to point ``b``."""
+    return Cylinder(a, R=_rot_z_to(b - a), radius=radius, height=float(np.linalg.norm(b - a)), color=color)
+
+
+def tripod() -> list[Primitive]:
+    """A studio microphone on a tripod with a looping cable: thin parts (three splayed legs, a pole, the cable's
+    loop around an empty hole) beside two volumes (the microphone's body and head). The parts a sketch must
+    draw as curves, not as superquadrics."""
+    metal, dark = (0.55, 0.56, 0.6), (0.18, 0.18, 0.2)
+    hub = np.array([0.0, 0.0, -0.3])
+    legs = [_rod(hub, np.array([0.68 * math.cos(a), 0.68 * math.sin(a), -0.95]), 0.022, dark)
+            for a in np.radians([90.0, 210.0, 330.0])]
+    return [
+        *legs,
+        _rod(np.array([0.0, 0.0, -0.36]), np.array([0.0, 0.0, 0.5]), 0.026, metal),
+        Cylinder(np.array([0.0, 0.0, 0.5]), radius=0.085, height=0.3, color=(0.3, 0.3, 0.34)),
+        Sphere(np.array([0.0, 0.0, 0.88]), radius=0.13, color=(0.42, 0.42, 0.46)),
+        # the cable's loop hangs beside the pole, in the x-z plane, touching it
+        Torus(np.array([0.3, 0.0, -0.02]), R=_rot_z_to(np.array([0.0, 1.0, 0.0])), major=0.27, minor=0.018,
+              color=(0.08, 0.08, 0.09)),
+    ]
+
+
+def mug() -> list[Primitive]:
+    """A mug with a ring handle: a volume (the body) with a thin loop on its side whose hole must stay open."""
+    glaze = (0.35, 0.5, 0.75)
+    return [
+        Cylinder(np.array([0.0, 0.0, -0.5]), radius=0.4, height=0.9, color=glaze),
+        Torus(np.array([0.45, 0.0, -0.05]), R=_rot_z_to(np.array([0.0, 1.0, 0.0])), major=0.24, minor=0.045,
+              color=glaze),
+    ]
+
+
+SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp, "tripod": tripod,
+                                                    "mug": mug}
 
 
 def visible_feature_edges(primitives: list[Primitive], max_len: float = 0.04, margin: float = 2e-3) -> np.ndarray:
@@ -163,12 +198,12 @@ def load_ground_truth(scene_dir: str | os.PathLike) -> dict:
 
 
 def primitive_from_dict(d: dict) -> Primitive:
-    kinds = {"sphere": Sphere, "box": Box, "cylinder": Cylinder, "cone": Cone}
+    kinds = {"sphere": Sphere, "box": Box, "cylinder": Cylinder, "cone": Cone, "torus": Torus}
     cls = kinds[d["type"]]
     kw = {"center": np.asarray(d["center"], float), "R": np.asarray(d["rotation_matrix"], float), "color": tuple(d["color"])}
     if "half_size" in d:
         kw["half"] = np.asarray(d["half_size"], float)
-    for key in ("radius", "height"):
+    for key in ("radius", "height", "major", "minor"):
         if key in d:
             kw[key] = float(d[key])
     return cls(**kw)
