@@ -30,3 +30,10 @@ def snowman_dir(tmp_path_factory) -> Path:
     from doodle.samples import write_sample
 
     return write_sample("snowman", tmp_path_factory.mktemp("scenes") / "snowman", n_train=12, n_test=4, size=128)
+
+
+@pytest.fixture(scope="session")
+def tripod_dir(tmp_path_factory) -> Path:
+    from doodle.samples import write_sample
+
+    return write_sample("tripod", tmp_path_factory.mktemp("scenes") / "tripod", n_train=20, n_test=4, size=160)
