@@ -77,8 +77,8 @@ def _rod(a: np.ndarray, b: np.ndarray, radius: float, color: tuple[float, float,
 
 def tripod() -> list[Primitive]:
     """A studio microphone on a tripod with a looping cable: thin parts (three splayed legs, a pole, the cable's
-    loop around an empty hole) beside two volumes (the microphone's body and head). The parts a sketch must
-    draw as curves, not as superquadrics."""
+    loop around an empty hole) below the microphone (a ball on a short, narrow body). The thin parts are
+    what a sketch must draw as curves, not as superquadrics."""
     metal, dark = (0.55, 0.56, 0.6), (0.18, 0.18, 0.2)
     hub = np.array([0.0, 0.0, -0.3])
     legs = [_rod(hub, np.array([0.68 * math.cos(a), 0.68 * math.sin(a), -0.95]), 0.022, dark)
