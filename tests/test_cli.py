@@ -72,3 +72,13 @@ def test_sample_writes_scene(runner, tmp_path):
     assert (tmp_path / "lamp" / "train" / "r_1.png").exists() and (tmp_path / "lamp" / "ground_truth.json").exists()
     r = runner.invoke(cli, ["sample", "nope", str(tmp_path / "x")])
     assert r.exit_code == 2 and "unknown sample scene" in r.output
+
+
+def test_demo_offers_every_sample_scene():
+    """The CLI lists the scenes literally (importing the renderer would slow every command's start): it must
+    keep up with ``SCENES``."""
+    from doodle.samples import SCENES
+
+    option = next(p for p in cli.commands["demo"].params if p.name == "scene")
+    assert list(option.type.choices) == list(SCENES)
+    assert ", ".join(SCENES) in cli.commands["sample"].help

@@ -1,4 +1,4 @@
-"""Procedural sample scenes (chair, snowman, lamp) rendered by doodle's own analytic ray caster."""
+"""Procedural sample scenes (chair, snowman, lamp, tripod, mug) rendered by doodle's own analytic ray caster."""
 
 from .capture import write_capture
 from .raycast import cast, render_rgba
