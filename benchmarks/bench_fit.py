@@ -37,7 +37,7 @@ from doodle.fit import FitConfig, fit  # noqa: E402
 from doodle.samples import load_ground_truth, write_sample  # noqa: E402
 from doodle.scenes import load_scene, load_scene_at_size  # noqa: E402
 from doodle.strokes import write_strokes  # noqa: E402
-from helpers_geometry import edge_scores, hole_points, thin_axes  # noqa: E402
+from helpers_geometry import edge_scores, hole_points, inside_superquadrics, thin_axes  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 LEGO = DATA / "nerf_synthetic" / "lego"
@@ -70,16 +70,13 @@ def sheet(strokes, cameras, out: Path | None, name: str) -> None:
 def thin_part_report(strokes, primitives) -> str:
     """How well curves draw each thin part (share of its axis within 0.05 of a curve) and whether a
     superquadric grows over one (or over a loop's hole)."""
-    from doodle.strokes.superquadric import union_log_inside_outside
-
     sq = strokes.superquadrics
-    inside = lambda p: union_log_inside_outside(p, sq.scale, sq.shape, sq.rotation, sq.translation) < 0  # noqa: E731
     covered, under_sq = [], 0
     for kind, segs in thin_axes(primitives):
         covered.append(f"{kind} {edge_scores(strokes.curves.control_points, segs, 0.05)[1]:.0%}")
         points = segs[len(segs) // 8:, 0]  # off the end where a part meets the rest
-        under_sq += int(inside(points[~np.any([p.contains(points, 0.05) for p in primitives if p.kind != kind], 0)]).any())
-    hole = float(inside(hole_points(primitives)).mean()) if len(sq) else 0.0
+        under_sq += int(inside_superquadrics(sq, points[~np.any([p.contains(points, 0.05) for p in primitives if p.kind != kind], 0)]).any())
+    hole = float(inside_superquadrics(sq, hole_points(primitives)).mean())
     return (f"thin parts drawn by curves: {', '.join(covered)}; under a superquadric: {under_sq} thin part(s), "
             f"{hole:.0%} of the loop's hole")
 

@@ -92,3 +92,10 @@ def hole_points(primitives, margin: float = 0.05) -> np.ndarray:
                 pts = pts[~other.contains(pts, margin)]
         out.append(pts)
     return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def inside_superquadrics(sq, points: np.ndarray) -> np.ndarray:
+    """``(P,)`` bool: which points ``(P, 3)`` lie inside the union of a :class:`SuperquadricSet`."""
+    from doodle.strokes.superquadric import union_log_inside_outside
+
+    return union_log_inside_outside(points, sq.scale, sq.shape, sq.rotation, sq.translation) < 0

@@ -19,7 +19,7 @@ from doodle.samples import load_ground_truth, write_sample
 from doodle.scenes import load_scene
 from doodle.strokes import CurveSet, StrokeSet, read_strokes
 
-from helpers_geometry import edge_scores, hole_points, thin_axes
+from helpers_geometry import edge_scores, hole_points, inside_superquadrics, thin_axes
 
 QUICK = dict(size=96, views_per_step=4, checkpoint_every=20)
 
@@ -261,8 +261,6 @@ class TestThinParts:
         assert thick.query(handle)[0].min() > 0.05 and thick.query(hole_points(prims, 0.1))[0].min() > 0.05
 
     def test_legs_pole_and_cable_are_curves(self, tripod_dir):
-        from doodle.strokes.superquadric import union_log_inside_outside
-
         res = fit(load_scene(tripod_dir), FitConfig(size=160, sq_iterations=100), progress=False, log=lambda m: None)
         s = res.strokes
         sq = s.superquadrics
@@ -273,10 +271,8 @@ class TestThinParts:
             covered = edge_scores(s.curves.control_points, segs, 0.05)[1]
             assert covered > 0.85, (kind, covered)  # measured 0.95-1.0
             points = segs[len(segs) // 8:, 0]  # off the hub, where the legs and the pole meet
-            inside = union_log_inside_outside(points, sq.scale, sq.shape, sq.rotation, sq.translation) < 0
-            assert not inside.any(), kind
-        hole = hole_points(gt["primitives"])
-        assert not (union_log_inside_outside(hole, sq.scale, sq.shape, sq.rotation, sq.translation) < 0).any()
+            assert not inside_superquadrics(sq, points).any(), kind
+        assert not inside_superquadrics(sq, hole_points(gt["primitives"])).any()
         m = evaluate(s, load_scene(tripod_dir, split="test"))
         assert m["f_score"] > 0.85, m  # measured 0.90
 

@@ -243,8 +243,9 @@ class Torus(Primitive):
         b = (o * d).sum(-1)
         c = (o * o).sum(-1) - self.bounding_radius() ** 2
         disc = b * b - c
-        t = np.where(disc >= 0, np.maximum(-b - np.sqrt(np.maximum(disc, 0.0)), 0.0), INF)
-        t_out = np.where(disc >= 0, -b + np.sqrt(np.maximum(disc, 0.0)), -INF)
+        root = np.sqrt(np.maximum(disc, 0.0))
+        t = np.where(disc >= 0, np.maximum(-b - root, 0.0), INF)
+        t_out = np.where(disc >= 0, -b + root, -INF)
         live = np.flatnonzero(disc >= 0)
         eps = 1e-5 * self.minor
         for _ in range(steps):
