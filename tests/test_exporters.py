@@ -279,3 +279,25 @@ def test_box_contour_closes_across_the_parameter_seam(azimuth):
     a = np.radians(azimuth)
     polys = contour_polylines(sq, _camera([3 * np.cos(a), 3 * np.sin(a), 1.7]))
     assert len(polys) == 1 and np.allclose(polys[0][1][0], polys[0][1][-1])
+
+
+def test_outline_cells_leave_out_the_contour_where_a_fit_did_not_confirm_it():
+    """A ball whose lower four latitude bands are left out draws its outline only above its centre; all cells
+    on draws what no cells field draws; all off draws nothing (the ball still hides what is behind it)."""
+    ball = SuperquadricSet(np.array([[0.6, 0.6, 0.6]]), np.array([[1.0, 1.0]]), np.array([I]), np.zeros((1, 3)))
+    cam = _camera([3.0, 0.5, 0.3])
+    frame = SceneFrame(radius=1.0)
+
+    def outline(cells):
+        ball.outline_cells = cells
+        d = draw(StrokeSet(frame, CurveSet(), ball), cam, DrawOptions(tolerance=0.1))
+        return np.concatenate([op.points() for op in d.layer("silhouettes")] or [np.zeros((0, 2))])
+
+    whole = outline(None)
+    assert np.array_equal(outline(np.ones((1, 8, 16), bool)), whole)
+    upper = np.ones((1, 8, 16), bool)
+    upper[0, :4] = False  # latitudes below the equator
+    centre_y = cam.project(np.zeros((1, 3)))[0][0, 1]
+    top = outline(upper)
+    assert len(top) > 0.3 * len(whole) and (top[:, 1] < centre_y + 1.0).all()  # image y grows downward
+    assert len(outline(np.zeros((1, 8, 16), bool))) == 0

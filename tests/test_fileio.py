@@ -23,6 +23,8 @@ def _assert_close(a, b, tol, normal_deg=0.01):
         assert np.degrees(np.arccos(cos)).max(initial=0) <= normal_deg
     assert (a.superquadrics.drawn == b.superquadrics.drawn).all()
     sa, sb = a.superquadrics, b.superquadrics
+    cells = lambda q: np.ones((len(q), 8, 16), bool) if q.outline_cells is None else q.outline_cells  # noqa: E731
+    assert np.array_equal(cells(sa), cells(sb))
     assert np.abs(sa.translation - sb.translation).max(initial=0) <= tol
     assert np.abs(sa.scale - sb.scale).max(initial=0) <= tol
     assert np.abs(sa.shape - sb.shape).max(initial=0) <= 1e-3
@@ -69,6 +71,8 @@ class TestJson:
             (lambda d: d["curves"].update(normals=[[[[0, 0, 1]] * 2] * 2] * 2), "curves.normals"),
             (lambda d: d["curves"].update(normals=[[[[0, 0, 2], [0, 0, 1]]] * 2] * 3), "curves.normals[0][0][0]"),
             (lambda d: d["superquadrics"][1].update(outline="no"), "superquadrics[1].outline"),
+            (lambda d: d["superquadrics"][1].update(outline_cells=["1" * 16] * 7), "superquadrics[1].outline_cells"),
+            (lambda d: d["superquadrics"][0].update(outline_cells=["1" * 15 + "x"] * 8), "superquadrics[0].outline_cells"),
         ],
     )
     def test_errors_name_the_field(self, tmp_path, mutate, field):
@@ -145,6 +149,8 @@ def stroke_sets(draw):
         s.curves.normals = normals
     if m and draw(st.booleans()):
         s.superquadrics.outline = rng.random(m) < 0.5
+    if m and draw(st.booleans()):
+        s.superquadrics.outline_cells = rng.random((m, 8, 16)) < 0.8
     return s
 
 

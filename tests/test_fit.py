@@ -144,6 +144,32 @@ class TestCheckpoints:
         assert not done.interrupted and not ckpt.exists()
         assert any("resuming" in m and "step 4" in m for m in logs)
 
+    def test_resume_keeps_which_outlines_are_drawn_and_where(self, tripod_dir, tmp_path, monkeypatch):
+        """Interrupted in the curve stage after the superquadrics are settled, a fit resumes with the same
+        superquadrics, the same drawn outlines and the same outline cells."""
+        from doodle.fit.pipeline import _superquadrics_from_checkpoint
+
+        scene = load_scene(tripod_dir)
+        cfg = FitConfig(iterations=30, sq_iterations=40, **{**QUICK, "size": 128})  # the head is drawn, the rest not
+        ckpt = tmp_path / "s.ckpt"
+        self._interrupting(monkeypatch, 10)
+        first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.superquadrics
+        assert first.drawn.any() and not first.drawn.all()
+        stored = _superquadrics_from_checkpoint(torch.load(ckpt, weights_only=True)["final_superquadrics"])
+        assert np.array_equal(stored.drawn, first.drawn) and np.allclose(stored.scale, first.scale)
+        # Cells round-trip through the checkpoint's tensors whatever this small fit confirmed.
+        cells = np.ones((len(first), 8, 16), bool) if first.outline_cells is None else first.outline_cells.copy()
+        cells[0, 0, 0] = not cells[0, 0, 0]
+        back = _superquadrics_from_checkpoint([torch.tensor(np.asarray(x, float)) for x in (
+            stored.scale, stored.shape, stored.rotation, stored.translation, stored.drawn, cells)])
+        assert np.array_equal(back.outline_cells, cells) and np.array_equal(back.drawn, first.drawn)
+        monkeypatch.undo()
+        done = fit(scene, cfg, checkpoint=ckpt, resume=True, progress=False, log=lambda m: None).strokes.superquadrics
+        assert np.array_equal(done.drawn, first.drawn)
+        assert (done.outline_cells is None) == (first.outline_cells is None)
+        if first.outline_cells is not None:
+            assert np.array_equal(done.outline_cells, first.outline_cells)
+
     def test_resume_needs_same_options(self, chair_dir, tmp_path, monkeypatch):
         scene = load_scene(chair_dir)
         ckpt = tmp_path / "s.ckpt"

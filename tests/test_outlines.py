@@ -1,13 +1,15 @@
 """Which superquadrics draw their outline (``doodle.fit.outlines``): only those that raise the sketch's F."""
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 from scipy import ndimage
 
 from doodle.cameras import orbit_cameras
+from doodle.exporters import DrawOptions, draw
 from doodle.exporters.visibility import union_mask
-from doodle.fit.outlines import keep_outlines, sketch_score
+from doodle.fit.outlines import confirm_outlines, confirmed_cells, keep_outlines, sketch_score
 from doodle.strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
 
 FRAME = SceneFrame(radius=1.0, camera=DefaultCamera(distance=4.0, elevation_deg=25.0, width=96, height=96))
@@ -137,3 +139,46 @@ def test_drawn_outlines_are_judged_again_once_the_superquadrics_are_settled():
     assert out.drawn.tolist() == [False] and [d.tolist() for d in chosen_again] == [[False]], messages
     slab.drawn[:] = True
     assert _recheck_outlines(slab, FRAME, judge, finish, messages.append) is slab and len(chosen_again) == 1
+
+
+def test_an_outline_is_drawn_only_where_the_views_confirm_it():
+    """The object is a ball on a wider box; the superquadric is the ball alone. Its upper rim is the object's
+    outline, its lower rim runs across the box where no line is. The fit keeps the upper cells and leaves out
+    the lower ones, so a view between the training views draws the rim that is there and not the one that is
+    not."""
+    ball = _one([0.5, 0.5, 0.5], [1.0, 1.0])
+    ball.translation[0, 2] = 0.3
+    box = SuperquadricSet(np.array([[0.7, 0.7, 0.45]]), np.array([[0.1, 0.1]]), np.array([[1.0, 0, 0, 0]]),
+                          np.array([[0.0, 0.0, -0.35]]))
+    solid = SuperquadricSet(*(np.vstack([getattr(ball, k), getattr(box, k)]) for k in ("scale", "shape", "rotation", "translation")))
+    masks, lines = _views(solid)
+    cells = confirmed_cells(ball, FRAME, CAMS, lines, masks)
+    # The upper bands kept, those below the equator left out; the lowest is never on a rim seen from above
+    # these views' 25° of elevation, and a cell no view saw stays drawn.
+    assert cells[0, 4:].all() and not cells[0, 1:4].any() and cells[0, 0].all(), cells.astype(int)
+    trimmed = confirm_outlines(ball, FRAME, CAMS, lines, masks)
+    assert np.array_equal(trimmed.outline_cells, cells)
+
+    between = orbit_cameras(SceneFrame(radius=1.0, camera=DefaultCamera(distance=4.0, elevation_deg=25.0, width=96,
+                                                                        height=96, azimuth_deg=22.5)), 8)
+
+    def on_lines(sq):
+        on = ink = 0
+        for cam in between:
+            m = union_mask(solid, cam)
+            near = ndimage.binary_dilation(m ^ ndimage.binary_erosion(m), iterations=1)
+            pts = np.concatenate([op.points() for op in draw(StrokeSet(FRAME, CurveSet(), sq), cam,
+                                                                  DrawOptions(tolerance=0.2)).layer("silhouettes")])
+            px = np.clip(np.floor(pts).astype(int), 0, 95)
+            on, ink = on + near[px[:, 1], px[:, 0]].sum(), ink + len(px)
+        return on / ink
+
+    assert on_lines(trimmed) > 0.95 > 0.75 > on_lines(ball)
+
+
+def test_an_outline_the_views_confirm_everywhere_is_left_whole():
+    ball = _one([0.6, 0.6, 0.6], [1.0, 1.0])
+    masks, lines = _views(ball)
+    assert confirm_outlines(ball, FRAME, CAMS, lines, masks).outline_cells is None
+    occluder = replace(ball, outline=np.array([False]))
+    assert confirm_outlines(occluder, FRAME, CAMS, [np.zeros_like(m) for m in masks], masks).outline_cells is None

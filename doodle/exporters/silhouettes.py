@@ -14,7 +14,7 @@ import numpy as np
 from skimage import measure
 
 from ..cameras import Camera
-from ..strokes.model import SuperquadricSet
+from ..strokes.model import OUTLINE_CELLS, SuperquadricSet
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix, surface_points_at, world_to_local
 
 
@@ -153,28 +153,72 @@ def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: np.ndarray, sq
     return surface(np.clip(s_lo - g_lo * (s_hi - s_lo) / denom, s_lo, s_hi))
 
 
-def contour_polylines(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_omega: int = 144,
-                      margin: float = 1e-4) -> list[tuple[int, np.ndarray, np.ndarray]]:
-    """The union's contour for ``camera`` as ``(superquadric index, (K, 3) world polyline, (K, 3) unit surface
-    normals)`` triples.
+def contour_cells(c: np.ndarray, n_eta: int, n_omega: int, cells: tuple[int, int] = OUTLINE_CELLS) -> np.ndarray:
+    """Marching-squares vertices ``(K, 2)`` in grid units of an ``n_eta × (n_omega + 1)`` grid → their flat
+    index ``(K,)`` in the coarse ``cells`` grid (row-major: latitude band × longitude sector)."""
+    rows = np.clip((c[:, 0] / (n_eta - 1) * cells[0]).astype(int), 0, cells[0] - 1)
+    cols = np.clip((c[:, 1] / n_omega * cells[1]).astype(int), 0, cells[1] - 1)
+    return rows * cells[1] + cols
 
-    Polylines are closed when their first and last vertices coincide.
-    """
+
+@dataclass(frozen=True)
+class ContourSamples:
+    """The union's contour generator for one camera, as loose vertices (before chaining into polylines)."""
+
+    pieces: list[tuple[int, int]]
+    """Per marching-squares piece, ``(superquadric index, vertex count)``, in the order of the arrays."""
+    points: np.ndarray
+    """``(K, 3)`` world points on the surfaces."""
+    normals: np.ndarray
+    """``(K, 3)`` unit surface normals."""
+    cells: np.ndarray
+    """``(K,)`` each vertex's cell of its superquadric's :data:`OUTLINE_CELLS` grid."""
+    on_union: np.ndarray
+    """``(K,)`` bool: not inside another superquadric (on the union's contour)."""
+
+    @property
+    def owner(self) -> np.ndarray:
+        return np.concatenate([np.full(k, i) for i, k in self.pieces]) if self.pieces else np.zeros(0, int)
+
+
+def contour_samples(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_omega: int = 144,
+                    margin: float = 1e-4) -> ContourSamples:
+    """Every superquadric's contour generator for ``camera``, with each vertex's outline cell and whether it lies
+    on the union's contour (``margin``: how far inside another superquadric, in log inside-outside units, still
+    counts as outside)."""
+    empty = ContourSamples([], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int), np.zeros(0, bool))
     if len(sq) == 0:
-        return []
+        return empty
     grids = surface_grids(sq, n_eta, n_omega)
     g = _contour_function(grids.points, grids.normals, camera)  # (M, n_eta, n_omega + 1)
     contours = [(i, c) for i in range(len(sq)) for c in measure.find_contours(g[i], 0.0) if len(c) >= 2]
     if not contours:
-        return []
+        return empty
     owner = np.concatenate([np.full(len(c), i) for i, c in contours])
-    p, n = _refine(np.concatenate([c for _, c in contours]), owner, grids, g, sq, camera)
+    c = np.concatenate([c for _, c in contours])
+    p, n = _refine(c, owner, grids, g, sq, camera)
     # Vertices inside another superquadric are not on the union's contour.
     lf = log_inside_outside(world_to_local(p, sq.rotation, sq.translation), sq.scale, sq.shape)  # (M, K)
     lf[owner, np.arange(len(p))] = np.inf
-    keep = lf.min(axis=0) >= -margin
-    cuts = np.cumsum([len(c) for _, c in contours])[:-1]
-    pieces = [(i, x) for (i, _), x in zip(contours, np.split(np.hstack([p, n, keep[:, None]]), cuts))]
+    return ContourSamples([(i, len(c)) for i, c in contours], p, n, contour_cells(c, n_eta, n_omega),
+                          lf.min(axis=0) >= -margin)
+
+
+def contour_polylines(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_omega: int = 144,
+                      margin: float = 1e-4) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """The union's contour for ``camera`` as ``(superquadric index, (K, 3) world polyline, (K, 3) unit surface
+    normals)`` triples, left out where a superquadric's ``outline_cells`` say its outline is not drawn.
+
+    Polylines are closed when their first and last vertices coincide.
+    """
+    s = contour_samples(sq, camera, n_eta, n_omega, margin)
+    if not s.pieces:
+        return []
+    keep = s.on_union
+    if sq.outline_cells is not None:
+        keep = keep & sq.outline_cells.reshape(len(sq), -1)[s.owner, s.cells]
+    cuts = np.cumsum([k for _, k in s.pieces])[:-1]
+    pieces = [(i, x) for (i, _), x in zip(s.pieces, np.split(np.hstack([s.points, s.normals, keep[:, None]]), cuts))]
     out: list[tuple[int, np.ndarray, np.ndarray]] = []
     for i in range(len(sq)):
         tol = 1e-6 * float(np.linalg.norm(sq.scale[i]))

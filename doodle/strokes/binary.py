@@ -6,15 +6,16 @@ Layout (little-endian)::
     frame: up 3×f32, center 3×f64, radius f64, fov/distance/elevation/azimuth 4×f32, width u16, height u16,
            width_px f32
     quantisation: origin 3×f64, position step f64, scale step f64, position bits u8, scale bits u8
-    version 2 only: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow)
+    version 2 only: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow,
+                              bit 2: outline cells follow)
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
                 rotations (M × (2 + 3·14) bits, "smallest three" quaternion components),
                 [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
-                normal)], [outline flags (M × 1 bit)]
+                normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)]
     trailer: u16 length + zlib(JSON of provenance and extras)
 
-Version 1 is written when there is neither (older readers read it); version 2 otherwise.
+Version 1 is written when there is none of them (older readers read it); version 2 otherwise.
 
 Positions are quantised on a grid whose step keeps the round-trip error ≤ 2.5e-4 of the scene radius
 (the bits per coordinate follow from the extent: 13 bits for a typical object). 32 curves and
@@ -31,8 +32,8 @@ import zlib
 import numpy as np
 
 from ..errors import StrokeFileError
-from .fileio import FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, stroke_set_from_dict
-from .model import StrokeSet
+from .fileio import FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, outline_cell_rows, stroke_set_from_dict
+from .model import OUTLINE_CELLS, StrokeSet
 
 MAGIC = b"DDLB"
 BINARY_VERSION = 2
@@ -45,6 +46,7 @@ _HEAD = struct.Struct("<4sBHB")
 _FRAME = struct.Struct("<3f3ddffffHHf")
 _QUANT = struct.Struct("<3dddBB")
 _SQRT_HALF = math.sqrt(0.5)
+N_CELLS = OUTLINE_CELLS[0] * OUTLINE_CELLS[1]
 
 
 def _bits_for(extent: float, step_limit: float) -> tuple[int, float]:
@@ -139,7 +141,10 @@ def encode(strokes: StrokeSet) -> bytes:
     outline = sq.drawn if m and not sq.drawn.all() else None
     if outline is not None:
         bits.append(outline.astype(np.uint8))
-    flags = (normals is not None) | ((outline is not None) << 1)
+    cells = sq.outline_cells if m and sq.outline_cells is not None and not sq.outline_cells.all() else None
+    if cells is not None:
+        bits.append(cells.reshape(-1).astype(np.uint8))
+    flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2)
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     meta = {"provenance": strokes.provenance, "extra": strokes.extra}
@@ -199,9 +204,9 @@ def _decode(data: bytes) -> StrokeSet:
     if version == 2:
         flags = data[start]
         start += 1
-        if flags & ~3:
+        if flags & ~7:
             raise StrokeFileError(f"unknown flags {flags:#x}")
-        n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0)
+        n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0) + (m * N_CELLS if flags & 4 else 0)
     stream_len = (n_bits + 7) // 8
     if len(data) < start + stream_len + 2:
         raise StrokeFileError(f"binary stroke data truncated ({len(data)} bytes, need {start + stream_len + 2})")
@@ -238,6 +243,7 @@ def _decode(data: bytes) -> StrokeSet:
     if flags & 1:
         curves_doc["normals"] = _from_octahedral(take(n * 4 * 2, NORMAL_BITS).reshape(-1, 2)).reshape(n, 2, 2, 3).tolist()
     drawn = take(m, 1).astype(bool) if flags & 2 else np.ones(m, bool)
+    cells = take(m * N_CELLS, 1).astype(bool).reshape(m, *OUTLINE_CELLS) if flags & 4 else None
     extra = meta.get("extra", {}) if isinstance(meta.get("extra", {}), dict) else {}
     doc = {
         "format": FORMAT, "version": VERSION,
@@ -246,7 +252,9 @@ def _decode(data: bytes) -> StrokeSet:
                              "width": fr[11], "height": fr[12]}},
         "curves": curves_doc,
         "superquadrics": [{"scale": scale[i].tolist(), "shape": shape[i].tolist(), "rotation": rots[i].tolist(),
-                           "translation": trans[i].tolist(), **({} if drawn[i] else {"outline": False})}
+                           "translation": trans[i].tolist(), **({} if drawn[i] else {"outline": False}),
+                           **({} if cells is None else
+                              {"outline_cells": outline_cell_rows(cells[i])})}
                           for i in range(m)],
         "provenance": meta.get("provenance", {}),
     }

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import StrokeFileError
-from .model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
+from .model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
 
 FORMAT = "doodle-strokes"
 VERSION = 1
@@ -169,6 +169,10 @@ def _parse(data: Any) -> StrokeSet:
             if sq.outline is None:
                 sq.outline = np.ones(m, bool)
             sq.outline[i] = item["outline"]
+        if "outline_cells" in item:
+            if sq.outline_cells is None:
+                sq.outline_cells = np.ones((m, *OUTLINE_CELLS), bool)
+            sq.outline_cells[i] = _outline_cells(item["outline_cells"], f"{name}.outline_cells")
 
     provenance = top.get("provenance", {})
     if not isinstance(provenance, dict):
@@ -199,6 +203,20 @@ def _curve_normals(value: Any, n: int) -> np.ndarray:
                     raise _Invalid(f"{name}: expected a unit vector or zero, norm is {norm:.4g}")
                 out[i, j, k] = v / norm if norm > 1e-9 else 0.0
     return out
+
+
+def _outline_cells(value: Any, name: str) -> np.ndarray:
+    """``outline_cells``: one string per latitude band, one ``0``/``1`` per longitude sector (1: drawn)."""
+    rows, cols = OUTLINE_CELLS
+    if (not isinstance(value, list) or len(value) != rows
+            or not all(isinstance(r, str) and len(r) == cols and set(r) <= {"0", "1"} for r in value)):
+        raise _Invalid(f"{name}: expected {rows} strings of {cols} 0s and 1s")
+    return np.array([[c == "1" for c in r] for r in value], bool)
+
+
+def outline_cell_rows(cells: np.ndarray) -> list[str]:
+    """One superquadric's ``OUTLINE_CELLS`` bools → the file's strings (one per latitude band, ``1``: drawn)."""
+    return ["".join("1" if c else "0" for c in row) for row in cells]
 
 
 def _checked_list(value: Any, n: int, name: str) -> list:
@@ -234,7 +252,9 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
                    **extra.get("curves", {})},
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
-             "translation": _floats(sq.translation[i]), **({} if sq.drawn[i] else {"outline": False})}
+             "translation": _floats(sq.translation[i]), **({} if sq.drawn[i] else {"outline": False}),
+             **({} if sq.outline_cells is None or sq.outline_cells[i].all() else
+                {"outline_cells": outline_cell_rows(sq.outline_cells[i])})}
             for i in range(len(sq))
         ],
         "provenance": strokes.provenance,

@@ -60,6 +60,12 @@ class CurveSet:
         return CurveSet(self.control_points[keep], self.width_px, None if self.normals is None else self.normals[keep])
 
 
+OUTLINE_CELLS = (8, 16)
+"""The coarse grid over a superquadric's surface on which a fit marks where its outline is drawn: 8 bands of
+latitude × 16 sectors of longitude, evenly spaced in the polar angles of its profiles (a parametric grid
+warped so, ``doodle.exporters.silhouettes.angle_warp``, spreads evenly over a box-like one too)."""
+
+
 @dataclass
 class SuperquadricSet:
     """View-dependent strokes: ``M`` superquadrics whose union's contour is drawn.
@@ -67,6 +73,12 @@ class SuperquadricSet:
     ``outline`` ``(M,)`` (optional, default all true): whether each one's contour is drawn. One that is not
     still hides what lies behind it: an occluder for hidden-line removal, where curves already draw the
     outline better than its rounded silhouette would.
+
+    ``outline_cells`` ``(M, 8, 16)`` bool (optional, default all true): where on its surface a drawn one's
+    contour is drawn, on a coarse grid of latitude bands × longitude sectors of its parametrisation
+    (:data:`OUTLINE_CELLS`). A superquadric only approximates its part: where its
+    contour strays from the object's outline (a sphere's rim across the neck it does not have), the fit
+    leaves those cells out, and the outline is drawn only where the views confirm it.
     """
 
     scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -75,6 +87,7 @@ class SuperquadricSet:
     """Unit quaternions ``(w, x, y, z)``."""
     translation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     outline: np.ndarray | None = None
+    outline_cells: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.scale.shape[0])
@@ -87,7 +100,8 @@ class SuperquadricSet:
     def subset(self, keep: np.ndarray) -> "SuperquadricSet":
         """The superquadrics selected by a boolean mask or index array."""
         return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep],
-                               None if self.outline is None else np.asarray(self.outline, bool)[keep])
+                               None if self.outline is None else np.asarray(self.outline, bool)[keep],
+                               None if self.outline_cells is None else np.asarray(self.outline_cells, bool)[keep])
 
 
 @dataclass
