@@ -14,10 +14,14 @@ def describe(path: str | Path) -> dict[str, Any]:
     strokes: StrokeSet = read_strokes(path)
     lo, hi = strokes.bounding_box()
     f = strokes.frame
+    sq = strokes.superquadrics
+    cells = sq.outline_cells[sq.drawn] if sq.outline_cells is not None else None
     return {
         "file": str(path),
         "curves": len(strokes.curves),
-        "superquadrics": len(strokes.superquadrics),
+        "superquadrics": len(sq),
+        "outlines_drawn": int(sq.drawn.sum()),
+        "outline_cells_left_out": 0 if cells is None else int((~cells).sum()),
         "bounding_box": {"min": [round(float(v), 4) for v in lo], "max": [round(float(v), 4) for v in hi]},
         "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes))},
         "scene": {"up": [round(float(v), 4) for v in f.up], "center": [round(float(v), 4) for v in f.center],
@@ -32,7 +36,9 @@ def format_description(info: dict[str, Any]) -> str:
     lines = [
         f"{_printable(info['file'])}",
         f"  curves          {info['curves']}",
-        f"  superquadrics   {info['superquadrics']}",
+        f"  superquadrics   {info['superquadrics']} ({info['outlines_drawn']} outlines drawn"
+        + (f", {info['outline_cells_left_out']} of their surface cells left out" if info["outline_cells_left_out"] else "")
+        + ")",
         f"  bounding box    {bb['min']} .. {bb['max']}",
         f"  scene           center {info['scene']['center']}, radius {info['scene']['radius']}, up {info['scene']['up']}",
         f"  size            {info['bytes']['file']} B on disk; JSON {info['bytes']['json']} B, binary {info['bytes']['binary']} B",

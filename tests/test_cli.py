@@ -2,6 +2,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -39,6 +40,19 @@ def test_info_and_json(runner, tmp_path):
     assert r.exit_code == 0 and "curves          32" in r.output and "binary" in r.output
     d = json.loads(runner.invoke(cli, ["info", "--json", str(p)]).output)
     assert d["curves"] == 32 and d["superquadrics"] == 8 and d["bytes"]["binary"] <= 1024
+    assert d["outlines_drawn"] == 8 and d["outline_cells_left_out"] == 0
+
+
+def test_info_counts_drawn_outlines_and_cells_left_out(runner, tmp_path):
+    s = random_strokes(n_sq=3)
+    s.superquadrics.outline = np.array([True, False, True])
+    s.superquadrics.outline_cells = np.ones((3, 8, 16), bool)
+    s.superquadrics.outline_cells[0, :2] = False  # 32 cells of a drawn one
+    s.superquadrics.outline_cells[1, :] = False  # an occluder's cells draw nothing anyway
+    p = tmp_path / "s.doodle"
+    write_strokes(p, s)
+    r = runner.invoke(cli, ["info", str(p)])
+    assert "superquadrics   3 (2 outlines drawn, 32 of their surface cells left out)" in r.output, r.output
 
 
 def test_info_corrupt_file_one_line_exit_2(runner, tmp_path):
