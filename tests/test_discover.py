@@ -166,6 +166,18 @@ class TestChoice:
         chosen, _ = select_strokes(covers, np.zeros(2), 10, 5, taken=np.arange(0, 90))
         assert chosen == [1]
 
+    def test_a_rim_along_an_outline_in_half_the_views_is_still_chosen(self):
+        """A cylinder's rim: its pixels in the views from behind lie on the superquadric's drawn outline
+        (taken), those in the views from the front are a line of their own. 40 % new is enough against an
+        outline; against a chosen stroke it takes half."""
+        rim, other = np.arange(0, 100), np.arange(100, 160)
+        chosen, _ = select_strokes([rim, other], np.zeros(2), 10, 5, taken=np.arange(0, 60))
+        assert sorted(chosen) == [0, 1]
+        longer = np.arange(100, 220)
+        along = np.concatenate([np.arange(100, 160), np.arange(0, 40)])  # 60 % along the stroke `longer`
+        chosen, _ = select_strokes([longer, along], np.zeros(2), 10, 5)
+        assert chosen == [0]
+
     def test_ink_off_the_lines_costs(self):
         covers = [np.arange(0, 40), np.arange(40, 100)]
         chosen, _ = select_strokes(covers, np.array([0.0, 200.0]), 10, 5)

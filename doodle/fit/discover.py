@@ -106,9 +106,14 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     off-line ink) first.
 
     A stroke is taken while its gain is at least ``min_gain`` pixels and at least ``min_novelty`` of the
-    line pixels it explains are not explained yet (a stroke along one already chosen is a duplicate).
-    At most ``max_strokes``. ``taken``: pixel ids explained before any stroke is chosen. Lazy evaluation
-    (gains only shrink as strokes are chosen) keeps it fast.
+    line pixels it explains are not explained by the strokes chosen before it (a stroke along one already
+    chosen is a duplicate). At most ``max_strokes``. ``taken``: pixel ids explained before any stroke is
+    chosen (superquadric outlines); they count fully against the gain but only half against the novelty
+    (at least ``min_novelty / 2`` of a stroke's pixels must be new overall): a cylinder's rim runs along its
+    superquadric's outline in the views from behind it and is a line of its own in the others (judged as
+    against a stroke, the mug's rim was a duplicate and went undrawn), while a stroke mostly along an
+    outline would be a tick beside it. Lazy evaluation (gains only shrink as strokes are chosen) keeps it
+    fast.
 
     Returns:
         The chosen indices in order, and each one's gain in pixels.
@@ -120,10 +125,13 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     if taken is not None and len(taken):
         done[taken[taken < size]] = True
     taken = done
+    by_curves = np.zeros(size, bool)  # novelty is judged against the strokes chosen here, not ``taken``
 
     def gain(k: int) -> tuple[float, float]:
         new = float((~taken[covers[k]]).sum())
-        return new - off_weight * off[k], new / max(len(covers[k]), 1)
+        n = max(len(covers[k]), 1)
+        novelty = min(float((~by_curves[covers[k]]).sum()) / n, 2 * new / n)  # see the docstring
+        return new - off_weight * off[k], novelty
 
     heap = [(-gain(k)[0], k) for k in range(len(covers))]
     heapq.heapify(heap)
@@ -143,6 +151,7 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
         chosen.append(k)
         gains.append(g)
         taken[covers[k]] = True
+        by_curves[covers[k]] = True
     return chosen, gains
 
 
