@@ -80,6 +80,15 @@ class TestShortFits:
         test = working_scene(load_scene(snowman_dir, split="test"), 96)
         assert silhouette_iou(res.strokes.superquadrics, test.cameras, test.masks) > 0.8
 
+    def test_a_cylinder_gets_flat_ends(self, tmp_path):
+        """The mug's body is a cylinder: grown from round superquadrics, one is then tried with flat ends and
+        keeps them because its silhouettes fit better (without the try: ε₁ 0.7–0.9, two stacked pills)."""
+        logs = []
+        scene = load_scene(write_sample("mug", tmp_path / "mug", n_train=12, n_test=2, size=96))
+        res = fit(scene, FitConfig(curves=0, sq_iterations=100, size=96, views_per_step=4), progress=False,
+                  log=logs.append)
+        assert res.strokes.superquadrics.shape[:, 0].min() < 0.4 and any("flat ends" in m for m in logs), logs
+
     def test_auto_draws_a_boxy_object_with_curves(self, chair_dir):
         """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
         drawn (some may stay as occluders), and the curves carry face normals for hidden-line removal."""

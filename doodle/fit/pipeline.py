@@ -33,6 +33,8 @@ MAX_CHECKPOINT_BYTES = 1 << 30
 #: Gain (share of line pixels) of the strong curves, whose outline coverage decides whether superquadrics
 #: are fitted at all.
 STRONG_GAIN = 0.002
+FLAT_END = 0.3
+"""ε₁ from which a superquadric is tried with flat ends (a cylinder's, a plate's) after it is grown."""
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
@@ -213,6 +215,20 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
         if top - best < min_gain:
             break
         params, best = trial, top
+    # Adam does not flatten a rounded end by itself (the mug's body: two stacked pills). Each one is tried
+    # once with flat ends and kept so when the silhouettes agree better.
+    for i in range(len(params)):
+        current = params.to_set()
+        if current.shape[i, 0] <= FLAT_END:
+            continue
+        shape = current.shape.copy()
+        shape[i, 0] = FLAT_END
+        trial = SuperquadricParams.from_set(replace(current, shape=shape)).to(device)
+        if sq_stage(trial, round_steps):
+            return trial, True
+        if (top := score(trial)) >= best + min_gain / 2:
+            say(f"superquadrics: one has flat ends (score {best:.3f} → {top:.3f})")
+            params, best = trial, top
     say(f"superquadrics: {len(params)} explain the silhouettes (score {best:.3f}); refining")
     return params, sq_stage(params, max(20, cfg.sq_iterations // 2), "superquadrics (refine)")
 
