@@ -164,8 +164,8 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
     union does not cover, or split the largest one in two along its longest axis — fits briefly, and keeps
     the better if the silhouette score (mean of mask IoU and boundary F-score) improves by ``min_gain``.
     Then each one is tried once with flat ends (ε₁ = :data:`FLAT_END`), kept if the score improves by
-    ``min_gain / 2``. A final joint refinement follows. (Fitting many at once and pruning leaves a ball split into overlapping
-    pieces whose inner contours show in every view.)
+    ``min_gain / 2``. A final joint refinement follows. (Fitting many at once and pruning leaves a ball split
+    into overlapping pieces whose inner contours show in every view.)
     """
     from scipy.spatial import cKDTree
 
