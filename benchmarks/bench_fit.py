@@ -101,7 +101,8 @@ def config_setting(text: str) -> tuple[str, object]:
 
 
 def main() -> None:
-    scenes = ("snowman", "chair", "lamp", "tripod", "mug", "abc", "blender", "lego")
+    procedural = ("snowman", "chair", "lamp", "tripod", "mug")
+    scenes = (*procedural, "abc", "blender", "lego")
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", type=lambda s: s.split(","), help="comma-separated: " + ",".join(scenes))
     ap.add_argument("--sheet", type=Path, help="write each scene's stroke file and contact sheet here")
@@ -115,7 +116,7 @@ def main() -> None:
     extra = dict(args.settings) | ({"iterations": args.iterations} if args.iterations is not None else {})
     want = lambda name: only is None or name in only  # noqa: E731
     with tempfile.TemporaryDirectory() as tmp:
-        for name in ("snowman", "chair", "lamp", "tripod", "mug"):
+        for name in procedural:
             if not want(name):
                 continue
             d = write_sample(name, Path(tmp) / name)

@@ -15,13 +15,12 @@ def describe(path: str | Path) -> dict[str, Any]:
     lo, hi = strokes.bounding_box()
     f = strokes.frame
     sq = strokes.superquadrics
-    cells = sq.outline_cells[sq.drawn] if sq.outline_cells is not None else None
     return {
         "file": str(path),
         "curves": len(strokes.curves),
         "superquadrics": len(sq),
         "outlines_drawn": int(sq.drawn.sum()),
-        "outline_cells_left_out": 0 if cells is None else int((~cells).sum()),
+        "outline_cells_left_out": int((~sq.drawn_cells[sq.drawn]).sum()),
         "bounding_box": {"min": [round(float(v), 4) for v in lo], "max": [round(float(v), 4) for v in hi]},
         "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes))},
         "scene": {"up": [round(float(v), 4) for v in f.up], "center": [round(float(v), 4) for v in f.center],

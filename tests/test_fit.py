@@ -167,7 +167,7 @@ class TestCheckpoints:
         stored = _superquadrics_from_checkpoint(torch.load(ckpt, weights_only=True)["final_superquadrics"])
         assert np.array_equal(stored.drawn, first.drawn) and np.allclose(stored.scale, first.scale)
         # Cells round-trip through the checkpoint's tensors whatever this small fit confirmed.
-        cells = np.ones((len(first), 8, 16), bool) if first.outline_cells is None else first.outline_cells.copy()
+        cells = first.drawn_cells.copy()
         cells[0, 0, 0] = not cells[0, 0, 0]
         back = _superquadrics_from_checkpoint([torch.tensor(np.asarray(x, float)) for x in (
             stored.scale, stored.shape, stored.rotation, stored.translation, stored.drawn, cells)])

@@ -123,7 +123,7 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
     m, n_cells = len(sq), OUTLINE_CELLS[0] * OUTLINE_CELLS[1]
     on, seen = np.zeros((m, n_cells)), np.zeros((m, n_cells))
     for cam, lm, mask in zip(cameras, lines, masks):
-        s = contour_samples(replace(sq, outline_cells=None), cam, *grid)
+        s = contour_samples(sq, cam, *grid)  # every contour vertex, whatever cells are drawn
         if not s.pieces:
             continue
         owner = s.owner

@@ -285,11 +285,6 @@ def _preview(strokes_fn: Callable[[], StrokeSet], cameras, out_dir: Path, tag: s
         contact_sheet(ims, cell=192).save(tmp, format="PNG")
 
 
-def _cells(sq: SuperquadricSet) -> np.ndarray:
-    """``sq``'s outline cells, all drawn when it has none."""
-    return np.ones((len(sq), *OUTLINE_CELLS), bool) if sq.outline_cells is None else sq.outline_cells
-
-
 def _superquadrics_from_checkpoint(tensors: list) -> SuperquadricSet:
     """The settled superquadrics of a checkpoint: shape parameters, then (since outline cells) the drawn flags
     and the outline cells, as float tensors."""
@@ -446,7 +441,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 "curve_params": curve_params.state_dict(), "generator": gen.get_state(),
                 "final_superquadrics": None if final_sq is None else
                 [f32(final_sq.scale), f32(final_sq.shape), f32(final_sq.rotation), f32(final_sq.translation),
-                 f32(final_sq.drawn), f32(_cells(final_sq))],
+                 f32(final_sq.drawn), f32(final_sq.drawn_cells)],
                 "discovered": None if not discovering else
                 {"control_points": f32(start), "normals": f32(normals), "outline": float(outline)},
             })

@@ -235,7 +235,8 @@ class Torus(Primitive):
     kind = "torus"
 
     def _sdf(self, p: np.ndarray) -> np.ndarray:
-        return np.hypot(np.hypot(p[:, 0], p[:, 1]) - self.major, p[:, 2]) - self.minor
+        """Exact signed distance to the tube, points ``(..., 3)`` → ``(...)``."""
+        return np.hypot(np.hypot(p[..., 0], p[..., 1]) - self.major, p[..., 2]) - self.minor
 
     def _intersect_local(self, o, d, steps: int = 160):
         # Sphere tracing on the exact distance field, from where the ray enters the bounding sphere; a
@@ -266,7 +267,7 @@ class Torus(Primitive):
         return t, n
 
     def _contains_local(self, p, margin):
-        return np.hypot(np.hypot(p[..., 0], p[..., 1]) - self.major, p[..., 2]) <= self.minor + margin
+        return self._sdf(p) <= margin
 
     def bounding_radius(self):
         return self.major + self.minor

@@ -235,6 +235,7 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
     f, cam = strokes.frame, strokes.frame.camera
     extra = strokes.extra
     sq = strokes.superquadrics
+    cells = sq.drawn_cells
     return {
         "format": FORMAT,
         "version": VERSION,
@@ -253,8 +254,7 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
              "translation": _floats(sq.translation[i]), **({} if sq.drawn[i] else {"outline": False}),
-             **({} if sq.outline_cells is None or sq.outline_cells[i].all() else
-                {"outline_cells": outline_cell_rows(sq.outline_cells[i])})}
+             **({} if cells[i].all() else {"outline_cells": outline_cell_rows(cells[i])})}
             for i in range(len(sq))
         ],
         "provenance": strokes.provenance,

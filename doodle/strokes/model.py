@@ -97,6 +97,11 @@ class SuperquadricSet:
         """``(M,)`` bool: whose contour is drawn."""
         return np.ones(len(self), bool) if self.outline is None else np.asarray(self.outline, bool)
 
+    @property
+    def drawn_cells(self) -> np.ndarray:
+        """``(M, *OUTLINE_CELLS)`` bool: where on each one's surface its contour is drawn (all, without cells)."""
+        return np.ones((len(self), *OUTLINE_CELLS), bool) if self.outline_cells is None else np.asarray(self.outline_cells, bool)
+
     def subset(self, keep: np.ndarray) -> "SuperquadricSet":
         """The superquadrics selected by a boolean mask or index array."""
         return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep],
