@@ -112,8 +112,8 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     (at least ``min_novelty / 2`` of a stroke's pixels must be new overall): a cylinder's rim runs along its
     superquadric's outline in the views from behind it and is a line of its own in the others (judged as
     against a stroke, the mug's rim was a duplicate and went undrawn once its top was a drawn outline),
-    while a stroke mostly along an outline would be a tick beside it. Lazy evaluation (gains only shrink as strokes are chosen) keeps it
-    fast.
+    while a stroke mostly along an outline would be a tick beside it. Lazy evaluation (gains only shrink as
+    strokes are chosen) keeps it fast.
 
     Returns:
         The chosen indices in order, and each one's gain in pixels.

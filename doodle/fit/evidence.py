@@ -302,8 +302,8 @@ def depth_maps(grid: VoxelGrid, occupied: np.ndarray, cameras: list[Camera]) -> 
     beside its tracks, where the tracks' lower edges lie 8 voxels inside the hull in every view), and the
     leak lets a share of the views vote for such edges. The exact front face (each voxel covering its
     projected footprint) raised precision and lowered recall: Lego F 0.755 → 0.73–0.75 with margins of 6, 9
-    and 12 voxels, Cheburashka 0.835–0.859, rocker arm 0.808–0.836, and an explicit soft visibility (hidden
-    views voting at a quarter weight) gave Lego 0.727.
+    and 12 voxels (Cheburashka 0.839 → 0.835–0.859, rocker arm 0.829 → 0.808–0.836), and an explicit soft
+    visibility (hidden views voting at a quarter weight) gave Lego 0.727.
     """
     surface = occupied & ~ndimage.binary_erosion(occupied)
     pts = grid.centres(np.argwhere(surface)).astype(np.float32)

@@ -141,7 +141,8 @@ def encode(strokes: StrokeSet) -> bytes:
     outline = sq.drawn if m and not sq.drawn.all() else None
     if outline is not None:
         bits.append(outline.astype(np.uint8))
-    cells = sq.drawn_cells if m and not sq.drawn_cells.all() else None
+    cells = sq.drawn_cells
+    cells = cells if m and not cells.all() else None
     if cells is not None:
         bits.append(cells.reshape(-1).astype(np.uint8))
     flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2)
