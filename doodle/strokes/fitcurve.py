@@ -160,7 +160,9 @@ def _split(s: np.ndarray, e: np.ndarray, owner: np.ndarray, ratio: np.ndarray, w
     halve = k == 2
     cut_seg = np.r_[np.flatnonzero(halve), np.repeat(np.flatnonzero(~halve), k[~halve] - 1)]
     frac = np.r_[np.zeros(halve.sum()), np.concatenate([np.arange(1, n) / n for n in k[~halve]] or [np.zeros(0)])]
-    at = np.searchsorted(arc, arc[s[cut_seg]] + frac * (arc[e[cut_seg]] - arc[s[cut_seg]]))
+    target = arc[s[cut_seg]] + frac * (arc[e[cut_seg]] - arc[s[cut_seg]])
+    # arc restarts in each polyline, so search each segment's own stretch
+    at = np.array([a + np.searchsorted(arc[a:b + 1], x) for a, b, x in zip(s[cut_seg], e[cut_seg], target)], int)
     at = np.where(np.arange(len(cut_seg)) < halve.sum(), worst_at[cut_seg], at)
     at = np.clip(at, s[cut_seg] + 1, e[cut_seg] - 1)
     # Boundaries of each segment in order, duplicates removed; consecutive ones become the new segments.
@@ -197,8 +199,9 @@ def fit_cubics_many(polylines: list[np.ndarray], tolerance: float, closed: list[
     starts = np.r_[0, np.cumsum(sizes)[:-1]]
     X = np.concatenate([p for p, _ in prepared])
     T = np.concatenate([t for _, t in prepared])
-    # Cumulative chord length over the whole array: differences within a polyline are its arc lengths.
-    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    # Cumulative chord length, from 0 in each polyline: a sum running over the whole array would round each
+    # polyline's lengths by what precedes it, and a batch would fit a polyline differently from itself alone.
+    arc = np.concatenate([np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))] for p, _ in prepared])
 
     s, e = starts.copy(), starts + sizes - 1  # open segments: vertex index ranges [s, e]
     owner = np.arange(len(prepared))
