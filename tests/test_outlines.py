@@ -182,3 +182,48 @@ def test_an_outline_the_views_confirm_everywhere_is_left_whole():
     assert confirm_outlines(ball, FRAME, CAMS, lines, masks).outline_cells is None
     occluder = replace(ball, outline=np.array([False]))
     assert confirm_outlines(occluder, FRAME, CAMS, [np.zeros_like(m) for m in masks], masks).outline_cells is None
+
+
+def _ring(radius: float) -> CurveSet:
+    """A circle in the x-z plane as four cubics, both faces' normals +y: a thin disc's rim with its normals
+    read off one side only, as a voxel hull gives them for a cupped ear."""
+    k = 0.5523 * radius
+    arcs = []
+    for q in range(4):
+        a, b = np.radians(90 * q), np.radians(90 * (q + 1))
+        p0 = radius * np.array([np.cos(a), 0, np.sin(a)])
+        p3 = radius * np.array([np.cos(b), 0, np.sin(b)])
+        t0 = k * np.array([-np.sin(a), 0, np.cos(a)])
+        t3 = k * np.array([-np.sin(b), 0, np.cos(b)])
+        arcs.append([p0, p0 + t0, p3 - t3, p3])
+    up = np.array([0.0, 1.0, 0.0])
+    return CurveSet(np.array(arcs), normals=np.tile(up, (4, 2, 2, 1)))
+
+
+def _inked_lines(strokes: StrokeSet) -> list[np.ndarray]:
+    """What the strokes draw in every camera, as line maps."""
+    from doodle.fit.outlines import ink_paths
+
+    return [ink_paths(np.zeros((c.height, c.width), bool), draw(strokes, c, DrawOptions(hidden="hide")).layer("curves"))
+            for c in CAMS]
+
+
+def test_facing_that_hides_lines_the_views_see_is_dropped_and_right_facing_is_kept():
+    from doodle.fit.hiding import wrongly_hidden
+
+    ring = _ring(0.7)
+    # the views see the whole rim (a thin disc's outline from either side): its one-sided facing is wrong
+    seen_all = _inked_lines(StrokeSet(FRAME, replace(ring, normals=None)))
+    assert wrongly_hidden(ring, SuperquadricSet(), FRAME, CAMS, seen_all).tolist() == [True] * 4
+    # the views see only the front half: the facing agrees with them
+    seen_front = _inked_lines(StrokeSet(FRAME, ring))
+    assert not wrongly_hidden(ring, SuperquadricSet(), FRAME, CAMS, seen_front).any()
+    # a cube's edges with their true faces, judged on what a cube shows: nothing to release
+    cube = _cube_edges(0.5)
+    assert not wrongly_hidden(cube, SuperquadricSet(), FRAME, CAMS, _inked_lines(StrokeSet(FRAME, cube))).any()
+    # a second rim drawn beside the first from every side: showing the first everywhere only doubles it
+    both = CurveSet(np.concatenate([ring.control_points, 1.01 * ring.control_points]),
+                    normals=np.concatenate([ring.normals, np.zeros_like(ring.normals)]))
+    assert not wrongly_hidden(both, SuperquadricSet(), FRAME, CAMS, seen_all).any()
+    # no normals, nothing to judge
+    assert not wrongly_hidden(replace(cube, normals=None), SuperquadricSet(), FRAME, CAMS, seen_all).any()

@@ -42,7 +42,7 @@ Held-out F with it: Cheburashka 0.813 → 0.833, rocker arm 0.815 → 0.819, sno
 little, 0.6 and 0.7 cost more outline than they gain precision."""
 
 
-def _ink(img: np.ndarray, ops) -> np.ndarray:
+def ink_paths(img: np.ndarray, ops) -> np.ndarray:
     """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
     H, W = img.shape
     for op in ops:
@@ -58,7 +58,7 @@ def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable
     for cam, d in zip(cameras, drawings):
         per: dict[int, np.ndarray] = {}
         for op in d.layer(layer):
-            _ink(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
+            ink_paths(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
         out.append(per)
     return out
 
@@ -73,7 +73,7 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
     drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     ink = on = rim = reached = 0
     for cam, d, lm, m in zip(cameras, drawings, lines, masks):
-        img = _ink(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
+        img = ink_paths(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
         boundary = m ^ ndimage.binary_erosion(m)
         ink += int(img.sum())
         on += int((img & ndimage.binary_dilation(lm, iterations=tau_px)).sum())

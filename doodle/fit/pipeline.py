@@ -556,11 +556,31 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         n_before = len(curves)
         curves, _ = prune_curves(curves, targets, cfg.curve_max_distance_px)
         say(f"curves: kept {len(curves)} of {n_before} (the others do not lie on lines across the views)")
+    if discovering and len(curves) and work.masks is not None:
+        curves = _confirm_hiding(curves, final_sq, frame, work, say)
     seconds = time.perf_counter() - clock_start
     strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds)
     if ckpt_path is not None and not interrupted:
         ckpt_path.unlink(missing_ok=True)
     return FitResult(strokes, interrupted, seconds, messages)
+
+
+def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, work: Scene,
+                    say: Callable[[str], None]) -> CurveSet:
+    """The curves with facing kept only where the training views do not contradict it (:mod:`.hiding`)."""
+    from .evidence import object_lines
+    from .hiding import wrongly_hidden
+
+    views = np.unique(np.linspace(0, len(work) - 1, min(OUTLINE_VIEWS, len(work))).round().astype(int))
+    # without thin parts' axes: a thin part's hidden edge lies beside its axis, as near as its visible one
+    wrong = wrongly_hidden(curves, sq, frame, [work.cameras[v] for v in views],
+                           [object_lines(work.images[v], work.masks[v], thin=0) for v in views])
+    if not wrong.any():
+        return curves
+    say(f"curves: {int(wrong.sum())} drawn from every side (the views see what their faces would hide)")
+    normals = curves.normals.copy()
+    normals[wrong] = 0.0
+    return replace(curves, normals=normals)
 
 
 def _stroke_set(frame: SceneFrame, scene: Scene, curves: CurveSet, sq: SuperquadricSet, cfg: FitConfig,
