@@ -131,7 +131,10 @@ def _newton(ctrl: np.ndarray, X: np.ndarray, seg: np.ndarray, u: np.ndarray, fir
     den = np.einsum("ij,ij->i", q1, q1) + np.einsum("ij,ij->i", q - X, q2)
     ok = np.abs(den) > 1e-12
     out = np.clip(u - np.where(ok, num / np.where(ok, den, 1.0), 0.0), 0, 1)
-    # Running maximum within each segment: offset every segment so one global accumulate does it.
+    # Running maximum within each segment: offset every segment so one global accumulate does it. On a grid
+    # of 2⁻³⁰ the offset is exact (for up to 2²¹ segments), so a segment's parameters do not depend on how
+    # many segments precede it in the batch.
+    out = np.round(out * 2.0**30) / 2.0**30
     out = np.maximum.accumulate(out + 2.0 * seg) - 2.0 * seg
     out[first] = 0.0
     return out
