@@ -5,10 +5,11 @@ off the visual hull, whose verdict on what a view sees is only as good as the hu
 cupped part (an ear, a lamp shade's edge) lies on the outline from both sides, yet its nearby hull normals
 all point one way, and the views from behind lose it. The training images know better. Each curve is drawn
 in the training views with and without its normals, and the ink the normals hide is sorted: on a line
-that the sketch leaves undrawn (what showing it would gain), off the lines (what it would cost), or beside
-a drawn line (it would only double that line: a thin plate's far rim seen edge-on, a leg's back edge).
-When the gain is most of the gain and cost together, the hiding was wrong and the curve keeps zero normals
-(never hidden by facing; the superquadrics still hide it).
+that the sketch leaves undrawn (what showing it would gain), more than a pixel past the tolerance from any
+line (what it would cost), or else beside a drawn line (it would only double that line: a thin plate's far
+rim seen edge-on, a leg's back edge) or just past the tolerance (the line drawn a little apart). When the
+gain is most of the gain and cost together, the hiding was wrong and the curve keeps zero normals (never
+hidden by facing; the superquadrics still hide it).
 """
 
 from __future__ import annotations
