@@ -96,3 +96,12 @@ class _Namespace:
 
 _NUMPY_NS = _Namespace(np, _NumpyOps)
 _TORCH_NS: _Namespace | None = None
+
+
+def spread_indices(n: int, k: int) -> np.ndarray:
+    """``min(k, n)`` indices into ``range(n)``, evenly spread and ending at both ends (views to sample).
+
+    >>> spread_indices(10, 4).tolist(), spread_indices(3, 8).tolist()
+    ([0, 3, 6, 9], [0, 1, 2])
+    """
+    return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(int))

@@ -23,6 +23,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from ..arrays import spread_indices
 from ..scenes import Scene
 from ..strokes.bezier import bezier_points
 from ..strokes.fitcurve import fit_cubics_many
@@ -355,7 +356,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
     seconds["curves"] = time.perf_counter() - t
     t = time.perf_counter()
-    views = list(np.unique(np.linspace(0, len(ev.cameras) - 1, min(max_views, len(ev.cameras))).round().astype(int)))
+    views = list(spread_indices(len(ev.cameras), max_views))
     total = int(sum(ev.lines[v].sum() for v in views))
     covers, off, _ = stroke_coverage(controls, ev, views) if len(controls) else ([], np.zeros(0), None)
     offsets = np.cumsum([0] + [ev.lines[v].size for v in views])

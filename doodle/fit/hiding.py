@@ -51,13 +51,11 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
     from ..exporters.drawing import DrawOptions, draw_many
 
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5)
-
-    def inked(c: CurveSet):
-        drawings = draw_many(StrokeSet(frame, c, sq), cameras, opts)
-        return drawings, raster_layer(drawings, cameras, "curves", _curve_owner)
-
-    drawings, facing = inked(curves)
-    _, plain = inked(replace(curves, normals=None))
+    drawings = draw_many(StrokeSet(frame, curves, sq), cameras, opts)
+    facing = raster_layer(drawings, cameras, "curves", _curve_owner)
+    # the curves again without normals; the outlines are the same, so they are not drawn twice
+    plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=None), sq), cameras,
+                                   replace(opts, silhouettes=False)), cameras, "curves", _curve_owner)
     gain, cost = np.zeros(len(curves)), np.zeros(len(curves))
     for cam, d, with_normals, without, lm in zip(cameras, drawings, facing, plain, lines):
         # Ink on a line the sketch leaves undrawn is what showing the curve gains; ink off the lines (more

@@ -15,6 +15,7 @@ import torch
 from scipy import ndimage
 
 from .. import __version__
+from ..arrays import spread_indices
 from ..atomic import atomic_path
 from ..cameras import Camera
 from ..errors import DoodleError
@@ -510,7 +511,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             from .evidence import object_lines
             from .outlines import keep_outlines
 
-            views = np.unique(np.linspace(0, len(work) - 1, min(OUTLINE_VIEWS, len(work))).round().astype(int))
+            views = spread_indices(len(work), OUTLINE_VIEWS)
             judge = ([work.cameras[v] for v in views], [object_lines(work.images[v], work.masks[v]) for v in views],
                      [work.masks[v] for v in views])
             final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame, *judge,
@@ -571,7 +572,7 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
     from .evidence import object_lines
     from .hiding import wrongly_hidden
 
-    views = np.unique(np.linspace(0, len(work) - 1, min(OUTLINE_VIEWS, len(work))).round().astype(int))
+    views = spread_indices(len(work), OUTLINE_VIEWS)
     # without thin parts' axes: a thin part's hidden edge lies beside its axis, as near as its visible one
     wrong = wrongly_hidden(curves, sq, frame, [work.cameras[v] for v in views],
                            [object_lines(work.images[v], work.masks[v], thin=0) for v in views])

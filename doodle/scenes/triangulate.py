@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..arrays import spread_indices
 from ..errors import SceneError
 from ..strokes.superquadric import matrix_to_quaternion
 from .colmap import quiet_pycolmap
@@ -29,7 +30,7 @@ def triangulate_scene_points(scene: Scene, max_views: int = 24, log: Callable[[s
     import pycolmap
     from PIL import Image
 
-    idx = np.linspace(0, len(scene) - 1, min(max_views, len(scene))).round().astype(int)
+    idx = spread_indices(len(scene), max_views)
     tmp = Path(tempfile.mkdtemp(prefix="doodle-triangulate-"))
     try:
         images, model, out = tmp / "images", tmp / "model", tmp / "out"
