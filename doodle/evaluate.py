@@ -78,10 +78,14 @@ def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256
     out = _summary(rows, tau, size)
     out["curves"], out["superquadrics"] = len(strokes.curves), len(strokes.superquadrics)
     out["bytes_json"], out["bytes_binary"] = len(dumps(strokes).encode()), len(encode(strokes))
+    out["contour_curves"] = int((strokes.curves.gates > 0).sum())
     if truth is not None:
         from .curvemetrics import curve_metrics
 
-        out["curves_3d"] = curve_metrics(strokes.curves.control_points, truth, gt_threshold)
+        # Feature curves only: a contour curve is where a smooth surface's outline lies for a few views, no
+        # feature line of the object (NEF, EMAP and CurveGaussian score edge curves alone, too).
+        features = strokes.curves.control_points[strokes.curves.gates == 0]
+        out["curves_3d"] = {**curve_metrics(features, truth, gt_threshold), "feature_curves": len(features)}
     out["per_view"] = rows
     return out
 
@@ -125,11 +129,12 @@ def format_metrics(m: dict[str, Any]) -> str:
         f"F-score               {f(m['f_score'])}",
         *([] if "curves" not in m else [  # a stroke file (not line drawings)
             f"superquadric IoU      {f(m['silhouette_iou'])}",
-            f"strokes               {m['curves']} curves, {m['superquadrics']} superquadrics",
+            f"strokes               {m['curves']} curves" + (f" ({m['contour_curves']} contour)" if m.get("contour_curves")
+                                                                  else "") + f", {m['superquadrics']} superquadrics",
             f"file size             {m['bytes_json']} B JSON, {m['bytes_binary']} B binary"]),
         *([] if "curves_3d" not in m else [
             f"3D curves (≤ {m['curves_3d']['threshold']:g})  precision {f(m['curves_3d']['precision'])}, recall "
             f"{f(m['curves_3d']['recall'])}, F {f(m['curves_3d']['f_score'])}, Chamfer "
             f"{'—' if m['curves_3d']['chamfer'] is None else format(m['curves_3d']['chamfer'], '.4f')} "
-            f"({m['curves_3d']['gt_curves']} sharp curves)"]),
+            f"({m['curves_3d']['feature_curves']} feature curves against {m['curves_3d']['gt_curves']} sharp curves)"]),
     ])

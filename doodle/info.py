@@ -18,6 +18,7 @@ def describe(path: str | Path) -> dict[str, Any]:
     return {
         "file": str(path),
         "curves": len(strokes.curves),
+        "contour_curves": int((strokes.curves.gates > 0).sum()),
         "superquadrics": len(sq),
         "outlines_drawn": int(sq.drawn.sum()),
         "outline_cells_left_out": int((~sq.drawn_cells[sq.drawn]).sum()),
@@ -34,7 +35,8 @@ def format_description(info: dict[str, Any]) -> str:
     bb = info["bounding_box"]
     lines = [
         f"{_printable(info['file'])}",
-        f"  curves          {info['curves']}",
+        f"  curves          {info['curves']}"
+        + (f" ({info['contour_curves']} of them contour curves, drawn where the view grazes them)" if info["contour_curves"] else ""),
         f"  superquadrics   {info['superquadrics']} ({info['outlines_drawn']} outlines drawn"
         + (f", {info['outline_cells_left_out']} of their surface cells left out" if info["outline_cells_left_out"] else "")
         + ")",

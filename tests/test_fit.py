@@ -153,13 +153,26 @@ class TestCheckpoints:
         assert not done.interrupted and not ckpt.exists()
         assert any("resuming" in m and "step 4" in m for m in logs)
 
+    def test_resume_keeps_the_contour_curves(self, snowman_dir, tmp_path, monkeypatch):
+        """Discovery is not repeated on resume: the contour curves and their gates come from the checkpoint."""
+        scene = load_scene(snowman_dir)
+        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        ckpt = tmp_path / "s.ckpt"
+        self._interrupting(monkeypatch, 10)
+        first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.curves
+        assert (first.gates > 0).any()
+        monkeypatch.undo()
+        done = fit(scene, cfg, checkpoint=ckpt, resume=True, progress=False, log=lambda m: None).strokes.curves
+        assert np.array_equal(done.gates, first.gates) and np.allclose(done.normals, first.normals)
+
     def test_resume_keeps_which_outlines_are_drawn_and_where(self, tripod_dir, tmp_path, monkeypatch):
         """Interrupted in the curve stage after the superquadrics are settled, a fit resumes with the same
         superquadrics, the same drawn outlines and the same outline cells."""
         from doodle.fit.pipeline import _superquadrics_from_checkpoint
 
         scene = load_scene(tripod_dir)
-        cfg = FitConfig(iterations=30, sq_iterations=40, **{**QUICK, "size": 128})  # the head is drawn, the rest not
+        # without contour curves the head is drawn by its superquadric, the rest not
+        cfg = FitConfig(iterations=30, sq_iterations=40, contours=False, **{**QUICK, "size": 128})
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.superquadrics

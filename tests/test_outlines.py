@@ -88,9 +88,9 @@ def test_an_outline_is_judged_with_the_curves_chosen_beside_it():
     rounded = _one([0.55, 0.55, 0.55], [0.6, 0.6])  # a rounded box: its outline lies near the cube's
     seen = []
 
-    def beside(sq: SuperquadricSet) -> CurveSet:
+    def beside(sq: SuperquadricSet) -> tuple[CurveSet, None]:
         seen.append(sq.drawn.copy())
-        return edges if not sq.drawn.any() else CurveSet()  # the outline would take the edges' place
+        return (edges if not sq.drawn.any() else CurveSet()), None  # the outline would take the edges' place
 
     # (its outline runs a pixel or two outside the cube's: the precision gate is not what this test is about)
     alone = keep_outlines(rounded, CurveSet(), FRAME, CAMS, lines, masks, min_precision=0.0)

@@ -10,7 +10,7 @@ import numpy as np
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.bezier import bezier_points
-from ..strokes.model import StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
@@ -103,9 +103,12 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
     if opt.silhouettes and sq.drawn.any():
         for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near)):
             mine.extend(ops)
-    if opt.curves and len(strokes.curves):
-        normals = strokes.curves.normals if opt.hidden != "show" else None
-        for mine, ops in zip(paths, _curve_paths(strokes.curves.control_points, normals, sq, cameras, opt, margin, near)):
+    curves = strokes.curves
+    # contour curves are outline (drawn with the silhouettes), the others feature lines
+    contour = (curves.gates > 0) & (curves.normals is not None)
+    wanted = np.flatnonzero(np.where(contour, opt.silhouettes, opt.curves))
+    if len(wanted):
+        for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near)):
             mine.extend(ops)
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
 
@@ -184,12 +187,54 @@ def back_facing(points: np.ndarray, t: np.ndarray, normals: np.ndarray, eyes: np
     return ~facing.any(axis=1)
 
 
-def _curve_paths(controls: np.ndarray, normals: np.ndarray | None, sq: SuperquadricSet, cameras: list[Camera],
+def off_contour(points: np.ndarray, t: np.ndarray, normals: np.ndarray, gates: np.ndarray, eyes: np.ndarray,
+                directions: np.ndarray, orthographic: np.ndarray) -> np.ndarray:
+    """Whether contour-curve points ``(P, 3)`` are off the outline: the view ray is farther from grazing the
+    surface than the curve's gate allows, ``|cos(normal, ray)| > gate``.
+
+    Args:
+        t: ``(P,)`` curve parameters; normals: ``(P, 2, 2, 3)`` each point's curve normals (the first face's
+            is the surface normal); gates: ``(P,)`` each point's curve's gate (``0``: a feature curve, never
+            off); eyes, directions, orthographic: as in :func:`back_facing`.
+    Returns:
+        ``(P,)`` bool.
+    """
+    n = (1.0 - t)[:, None] * normals[:, 0, 0] + t[:, None] * normals[:, 1, 0]
+    to_eye = np.where(orthographic[:, None], -directions, eyes - points)
+    cos = np.einsum("pk,pk->p", n, to_eye) / np.maximum(np.linalg.norm(n, axis=1) * np.linalg.norm(to_eye, axis=1), 1e-12)
+    return (gates > 0) & (np.abs(cos) > gates)
+
+
+def occlusion_probes(points: np.ndarray, t: np.ndarray, normals: np.ndarray | None, margin: float) -> np.ndarray:
+    """Where curve points ``(P, 3)`` are tested for occlusion by the superquadrics: ``margin`` out along the
+    mean of their face normals (``normals (P, 2, 2, 3)`` as in :func:`back_facing`, ``t (P,)`` their
+    parameters); where they are when those are zero or cancel.
+
+    A curve on the outline is seen along rays that graze the object, so a superquadric a hair wider than
+    its part would cover it along a long chord (a contour curve always, a rim where its face turns away).
+    Tested a little outside the surface, the ray clears its own part, and only what truly lies in front of
+    the point hides it.
+    """
+    if normals is None:
+        return points
+    n = ((1.0 - t)[:, None, None] * normals[:, 0] + t[:, None, None] * normals[:, 1]).sum(axis=1)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return points + np.where(length > 1e-6, margin * n / np.maximum(length, 1e-12), 0.0)
+
+
+def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras: list[Camera],
                  opt: DrawOptions, margin: float | None, near: float) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
 
     A curve point is hidden when the superquadrics cover it (``margin`` given) or when both faces of its
-    ``normals`` turn away from the camera."""
+    normals turn away from the camera (unless ``opt.hidden`` is ``show``). A contour curve's points are not
+    drawn at all, in any layer, where the view does not graze the surface (:func:`off_contour`): there they
+    are no line of the object, hidden or not; the rest goes in the silhouettes layer (ids ``contour-NNN``).
+    ``ids``: each curve's index in the stroke set, for the path ids."""
+    controls = curves.control_points
+    normals = curves.normals if opt.hidden != "show" else None
+    gates = curves.gates if curves.normals is not None else np.zeros(len(curves))
+    contour_normals = curves.normals
     intervals = [(v, n, a, b) for v, camera in enumerate(cameras) for n, control in enumerate(controls)
                  for a, b in depth_intervals(control, camera, near)]
     interval_view = np.array([v for v, _, _, _ in intervals], int)
@@ -201,18 +246,31 @@ def _curve_paths(controls: np.ndarray, normals: np.ndarray | None, sq: Superquad
     def is_hidden(points, rows, t):
         hidden = np.zeros(len(points), bool)
         if margin is not None:
-            hidden |= occluded(points, interval_view[rows], cameras, sq, margin)
+            probe = occlusion_probes(points, t, None if curves.normals is None else curves.normals[interval_curve[rows]],
+                                     margin)
+            hidden |= occluded(probe, interval_view[rows], cameras, sq, margin)
         if normals is not None:
             v = interval_view[rows]
             hidden |= back_facing(points, t, normals[interval_curve[rows]], eyes[v], dirs[v], ortho[v])
         return hidden
+    if (gates > 0).any():
+        gated = [(v, n, lo, hi) for (v, n, a, b), mine in zip(intervals, visibility_runs(
+            controls, [(n, a, b) for _, n, a, b in intervals], lambda points, rows, t: off_contour(
+                points, t, contour_normals[interval_curve[rows]], gates[interval_curve[rows]],
+                eyes[interval_view[rows]], dirs[interval_view[rows]], ortho[interval_view[rows]])))
+                 for lo, hi, off in mine if not off]
+        intervals = gated
+        interval_view = np.array([v for v, _, _, _ in intervals], int)
+        interval_curve = np.array([n for _, n, _, _ in intervals], int)
     runs = visibility_runs(controls, [(n, a, b) for _, n, a, b in intervals], is_hidden)
     pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]
     projected = project_curves(controls, [(v, n, lo, hi) for v, n, lo, hi, _ in pieces], cameras, opt.tolerance)
     ops: dict[tuple[int, int, bool], PathOp] = {}
     for (v, n, _, _, h), (cubics, _) in zip(pieces, projected):
-        op = ops.setdefault((v, n, h), PathOp(f"hidden-curve-{n:03d}" if h else f"curve-{n:03d}", "hidden" if h else "curves"))
+        kind, layer = ("contour", "silhouettes") if gates[n] > 0 else ("curve", "curves")
+        name = f"{kind}-{ids[n]:03d}"
+        op = ops.setdefault((v, n, h), PathOp(f"hidden-{name}" if h else name, "hidden" if h else layer))
         op.subpaths.append(cubics)
         op.closed.append(False)
     out: list[list[PathOp]] = [[] for _ in cameras]

@@ -25,6 +25,10 @@ class FitConfig:
     """Image size (larger side, px) for the edge evidence; never enlarged."""
     evidence_voxels: int = 192
     """Evidence grid voxels along the object's longest side."""
+    contours: bool = True
+    """Discovery also offers each training view's outline as contour curves (``doodle.fit.rims``): curves
+    drawn only from the views that graze them, which outline smooth parts no fixed curve or superquadric
+    draws."""
     discovery_min_gain: float = 0.0005
     """Discovery keeps adding strokes while the next one newly explains at least this share of all line
     pixels over the views."""

@@ -30,6 +30,7 @@ from ..strokes.fitcurve import fit_cubics_many
 from .evidence import Evidence, _project, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
+from .rims import CONTOUR_GATES, find_rims
 
 
 @dataclass
@@ -48,30 +49,58 @@ class Discovery:
     gains: list[float] = field(default_factory=list)
     voxel: float = 0.0
     seconds: dict[str, float] = field(default_factory=dict)
+    contour: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """``(N,)`` each cubic's contour gate (see :class:`~doodle.strokes.model.CurveSet`; ``0``: a feature curve)."""
+    source: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """``(N,)`` the view a contour curve was traced in (``-1`` for feature curves): judged elsewhere only."""
 
 
 #: 3D fitting tolerance of the cubics, in voxels.
 TOLERANCE_VOXELS = 2.0
 #: A stroke shorter than this share of the object's size that touches no other stroke is dropped.
 STRAY_LENGTH = 0.02
+#: A contour curve's gain counts this much against a feature curve's: where both draw a line (a sharp edge on
+#: the outline), the feature curve, which every view sees, is the one to keep.
+CONTOUR_WEIGHT = 0.7
+RIM_FEATURES = True
+OUTLINE_WEIGHT = 1.0
 #: The ridge threshold's evidence level; a bridge across a gap needs half of it on average.
 BRIDGE_EVIDENCE = 0.15
 _NEIGHBOURS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
 
 
-def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacing_px: float = 0.7
-                    ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacing_px: float = 0.7,
+                    gates: np.ndarray | None = None, contour_normals: np.ndarray | None = None,
+                    source: np.ndarray | None = None) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """For each cubic: the line pixels it explains (global ids over ``views``), its off-line ink and its ink.
 
     A cubic is sampled about ``spacing_px`` apart in the views; a sample counts in a view when the hull does
-    not hide it; it explains the line pixels of its 3 × 3 neighbourhood (within 1.5 px), and is off-line ink
-    when there are none.
+    not hide it and, for a contour curve (``gates (N,)`` above 0, with its ``contour_normals (N, 2, 3)`` at
+    start and end), when the view grazes its surface there (as the exporters draw it); it explains the line
+    pixels of its 3 × 3 neighbourhood (within 1.5 px), and is off-line ink when there are none. A contour
+    curve is not counted in the view it was traced in (``source (N,)``, an index into the evidence's views;
+    ``-1``: none): there it lies on the outline by construction, and what it is worth is how well it draws
+    the outline of the others.
     """
     rough = bezier_points(controls, np.linspace(0, 1, 9))
     length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
     n_samples = np.clip(np.ceil(length / ev.grid.voxel / spacing_px * 1.2).astype(int), 4, 4000)
-    P = np.concatenate([bezier_points(c, np.linspace(0, 1, n)) for c, n in zip(controls, n_samples)]).astype(np.float32)
+    params = [np.linspace(0, 1, n) for n in n_samples]
+    P = np.concatenate([bezier_points(c, t) for c, t in zip(controls, params)]).astype(np.float32)
+    T = np.concatenate(params)
     owner = np.repeat(np.arange(len(controls)), n_samples)
+    gated = None
+    if gates is not None and (gates > 0).any():
+        gated = np.flatnonzero(gates[owner] > 0)
+        n = contour_normals[owner[gated]]
+        Ng = ((1 - T[gated])[:, None] * n[:, 0] + T[gated][:, None] * n[:, 1]).astype(np.float32)
+        Ng /= np.maximum(np.linalg.norm(Ng, axis=1, keepdims=True), 1e-12)
+        Pg, Gg = P[gated], gates[owner[gated]]
+        Probes = Pg + 2 * ev.grid.voxel * Ng
+        is_gated = np.zeros(len(P), bool)
+        is_gated[gated] = True
+        rank = np.zeros(len(P), int)
+        rank[gated] = np.arange(len(gated))
     off = np.zeros(len(controls))
     ink = np.zeros(len(controls))
     hit_owner, hit_pix = [], []
@@ -81,8 +110,25 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
         H, W = lines.shape
         u, w, z = _project(cam, P)
         ok = (z > 1e-6) & (u >= 1) & (w >= 1) & (u < W - 1) & (w < H - 1)
+        if gated is not None:
+            to_eye = cam.center.astype(np.float32) - Pg
+            cos = (Ng * to_eye).sum(1) / np.maximum(np.linalg.norm(to_eye, axis=1), 1e-12)
+            ok[gated[np.abs(cos) > Gg]] = False
+        if source is not None:
+            ok[source[owner] == v] = False
         idx = np.flatnonzero(ok)
-        idx = idx[z[idx] <= ev.depth[v][w[idx], u[idx]] + ev.margin]
+        visible = z[idx] <= ev.depth[v][w[idx], u[idx]] + ev.margin
+        if gated is not None:
+            # a contour point's ray grazes the hull, whose depth there is the far side of a long chord: it is
+            # tested a couple of voxels out along its normal, as the exporters test it against superquadrics
+            pu, pw, pz = _project(cam, Probes)
+            g = is_gated[idx]
+            j = rank[idx[g]]
+            inside = (pu[j] >= 0) & (pw[j] >= 0) & (pu[j] < W) & (pw[j] < H)
+            seen = np.ones(len(j), bool)
+            seen[inside] = pz[j][inside] <= ev.depth[v][pw[j][inside], pu[j][inside]] + ev.margin
+            visible[g] = seen
+        idx = idx[visible]
         ny = w[idx, None] + _NEIGHBOURS[None, :, 0]
         nx = u[idx, None] + _NEIGHBOURS[None, :, 1]
         on = lines[ny, nx]  # (samples, 9)
@@ -101,7 +147,8 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
 
 
 def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, min_gain: float,
-                   min_novelty: float = 0.5, off_weight: float = 0.5, taken: np.ndarray | None = None
+                   min_novelty: float = 0.5, off_weight: float = 0.5, taken: np.ndarray | None = None,
+                   weight: np.ndarray | None = None, pixel_weight: np.ndarray | None = None
                    ) -> tuple[list[int], list[float]]:
     """Greedy set cover: the stroke that newly explains the most line pixels (minus ``off_weight`` × its
     off-line ink) first.
@@ -128,11 +175,17 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     taken = done
     by_curves = np.zeros(size, bool)  # novelty is judged against the strokes chosen here, not ``taken``
 
+    pw = None
+    if pixel_weight is not None:
+        pw = np.ones(size)
+        pw[: min(size, len(pixel_weight))] = pixel_weight[:size]
+
     def gain(k: int) -> tuple[float, float]:
-        new = float((~taken[covers[k]]).sum())
+        new = float((~taken[covers[k]]).sum()) if pw is None else float(pw[covers[k]][~taken[covers[k]]].sum())
         n = max(len(covers[k]), 1)
         novelty = min(float((~by_curves[covers[k]]).sum()) / n, 2 * new / n)  # see the docstring
-        return new - off_weight * off[k], novelty
+        g = new - off_weight * off[k]
+        return (g * weight[k] if weight is not None and g > 0 else g), novelty
 
     heap = [(-gain(k)[0], k) for k in range(len(covers))]
     heapq.heapify(heap)
@@ -306,6 +359,12 @@ class Candidates:
     ridge_points: int
     polylines: int
     seconds: dict[str, float]
+    gates: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """``(N,)`` each candidate's contour gate (``0``: a feature curve; see :mod:`.rims`)."""
+    contour_normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
+    """``(N, 2, 3)`` a contour candidate's surface normals at start and end (zeros for feature curves)."""
+    source: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """``(N,)`` the evidence view a contour candidate was traced in (``-1`` for feature curves)."""
 
     def pixel_ids(self, view_pixels: list[np.ndarray], reach: int = 1) -> np.ndarray:
         """Global ids of the line pixels within ``reach`` pixels (a (2 reach + 1)² square) of given pixels
@@ -326,7 +385,7 @@ class Candidates:
 
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
-                    tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48,
+                    tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48, contours: bool = True,
                     log: Callable[[str], None] = lambda m: None) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
@@ -338,6 +397,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
             dropped: in a sketch they read as ticks and dots.
         tolerance_voxels: 3D fitting tolerance of the cubics.
         max_views: views used to choose strokes (evenly spread).
+        contours: also offer every view's contour curves (:mod:`.rims`), the outline of smooth parts.
     """
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
@@ -354,18 +414,36 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
              and strong is not None and np.isfinite(strong.query(p, distance_upper_bound=0.5 * h)[0]).any()]
     pieces = fit_cubics_many(polys, tolerance_voxels * h) if polys else []
     controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
+    gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)
     seconds["curves"] = time.perf_counter() - t
+    n_rims = 0
+    if contours:
+        t = time.perf_counter()
+        f = scene.frame
+        rims = find_rims(ev.cameras, scene.masks, ev.grid, ev.occupied, f.center, f.radius, min_length * size,
+                         tolerance_voxels * h)
+        offered = CONTOUR_GATES + ((0.0,) if RIM_FEATURES else ())
+        k = len(offered)  # each contour curve is offered once with every gate
+        n_rims = len(rims.controls) * k
+        controls = np.concatenate([controls, np.tile(rims.controls, (k, 1, 1))])
+        gates = np.r_[gates, np.repeat(offered, len(rims.controls))]
+        normals = np.concatenate([normals, np.tile(rims.normals, (k, 1, 1))])
+        source = np.r_[source, np.tile(rims.view, k)]
+        seconds["contours"] = time.perf_counter() - t
     t = time.perf_counter()
     views = list(spread_indices(len(ev.cameras), max_views))
     total = int(sum(ev.lines[v].sum() for v in views))
-    covers, off, _ = stroke_coverage(controls, ev, views) if len(controls) else ([], np.zeros(0), None)
+    covers, off, _ = stroke_coverage(controls, ev, views, gates=gates, contour_normals=normals, source=source) \
+        if len(controls) else ([], np.zeros(0), None)
     offsets = np.cumsum([0] + [ev.lines[v].size for v in views])
     rim = np.concatenate([np.flatnonzero(m ^ ndimage.binary_erosion(m)) + o
                           for m, o in zip((scene.masks[v] for v in views), offsets)])
     seconds["coverage"] = time.perf_counter() - t
-    log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls)} candidate cubics "
-        f"(evidence {seconds['evidence']:.1f} s, curves {seconds['curves']:.1f} s)")
-    return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds)
+    log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls) - n_rims} candidate "
+        f"cubics" + (f" + {n_rims} contour cubics" if contours else "") + f" (evidence {seconds['evidence']:.1f} s, "
+        f"curves {seconds['curves']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")")
+    return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds,
+                      gates, normals, source)
 
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
@@ -382,12 +460,20 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     ev = cand.evidence
     h = ev.grid.voxel
     if len(cand.controls):
-        chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken)
+        weight = np.where(cand.gates > 0, CONTOUR_WEIGHT, 1.0) if len(cand.gates) else None
+        pixel_weight = None
+        if OUTLINE_WEIGHT != 1.0 and len(cand.rim):
+            pixel_weight = np.ones(int(cand.rim.max()) + 1)
+            pixel_weight[cand.rim] = OUTLINE_WEIGHT
+        chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken,
+                                       weight=weight, pixel_weight=pixel_weight)
     else:
         chosen, gains = [], []
     explained = np.unique(np.concatenate([cand.covers[k] for k in chosen])) if chosen else np.zeros(0, np.int64)
     outline = float(np.isin(cand.rim, explained).mean()) if len(cand.rim) else 0.0
-    controls = cand.controls[chosen]
+    chosen = np.asarray(chosen, int)
+    is_contour = cand.gates[chosen] > 0 if len(cand.gates) else np.zeros(len(chosen), bool)
+    controls = cand.controls[chosen[~is_contour]]
     bridged = 0
     if polish and len(controls):
         controls = refine_on_evidence(controls, ev)
@@ -397,12 +483,19 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         controls = join_strokes(np.concatenate([controls, bridges]), h, TOLERANCE_VOXELS * h)[:max_curves]
         controls = snap_ends(drop_stray(controls, STRAY_LENGTH * size, 2.0 * h), 2.0 * h)
     normals = curve_normals(controls, ev.grid, ev.occupied, ev.cameras, ev.depth, ev.margin)
+    # contour curves keep their place and their surface normal (both "faces" are the one smooth surface)
+    rims = chosen[is_contour]
+    controls = np.concatenate([controls, cand.controls[rims]])
+    normals = np.concatenate([normals, np.repeat(cand.contour_normals[rims][:, :, None], 2, axis=2)])
+    contour = np.r_[np.zeros(len(controls) - len(rims)), cand.gates[rims]]
+    source = np.r_[np.full(len(controls) - len(rims), -1), cand.source[rims]].astype(int)
     seconds = {**cand.seconds, "choice": time.perf_counter() - t}
     coverage = len(explained) / max(cand.total, 1)
-    log(f"discovery: {len(chosen)} of {len(cand.controls)} candidate cubics chosen, explaining {coverage:.0%} of the "
-        f"line pixels and {outline:.0%} of the outlines" + (f"; {bridged} gaps bridged, {len(controls)} cubics after "
-                                                               f"joining" if polish else ""))
-    return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds)
+    log(f"discovery: {len(chosen)} of {len(cand.controls)} candidate cubics chosen ({len(rims)} contour), explaining "
+        f"{coverage:.0%} of the line pixels and {outline:.0%} of the outlines" + (
+            f"; {bridged} gaps bridged, {len(controls)} cubics after joining" if polish else ""))
+    return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds,
+                     contour, source)
 
 
 def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, threshold: float = 0.15,

@@ -46,7 +46,8 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
             hidden edges lie beside its axis as closely as its visible ones (the chair's legs).
         min_share: see :data:`MIN_HIDDEN_ON_LINES`.
     """
-    if curves.normals is None or not np.any(curves.normals):
+    features = curves.gates == 0  # a contour curve's normal decides where it is an outline, not what it hides
+    if curves.normals is None or not np.any(curves.normals[features]):
         return np.zeros(len(curves), bool)
     from ..exporters.drawing import DrawOptions, draw_many
 
@@ -54,7 +55,9 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
     drawings = draw_many(StrokeSet(frame, curves, sq), cameras, opts)
     facing = raster_layer(drawings, cameras, "curves", _curve_owner)
     # the curves again without normals; the outlines are the same, so they are not drawn twice
-    plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=None), sq), cameras,
+    plain_normals = curves.normals.copy()
+    plain_normals[features] = 0.0
+    plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=plain_normals), sq), cameras,
                                    replace(opts, silhouettes=False)), cameras, "curves", _curve_owner)
     gain, cost = np.zeros(len(curves)), np.zeros(len(curves))
     for cam, d, with_normals, without, lm in zip(cameras, drawings, facing, plain, lines):
@@ -71,4 +74,4 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
             extra = img if mine is None else img & ~ndimage.binary_dilation(mine)
             gain[i] += (extra & undrawn).sum()
             cost[i] += (extra & off).sum()
-    return (gain > 0) & (gain >= min_share * (gain + cost))
+    return features & (gain > 0) & (gain >= min_share * (gain + cost))

@@ -64,16 +64,24 @@ def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable
 
 
 def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarray], masks: list[np.ndarray],
-                 tau_px: int = 2) -> tuple[float, float, float]:
+                 tau_px: int = 2, traced: np.ndarray | None = None) -> tuple[float, float, float]:
     """``(F, precision, recall)`` of a sketch drawn in ``cameras``, pooled over the views, as ``doodle eval``
     measures it: precision is the share of inked pixels within ``tau_px`` of the views' ``lines``, recall the
-    share of the ``masks``' boundary pixels within ``tau_px`` of ink."""
+    share of the ``masks``' boundary pixels within ``tau_px`` of ink.
+
+    ``traced`` ``(N,)``: per curve, the index into ``cameras`` of the view a contour curve was traced in
+    (``-1``: none). It is left out of that view, where it lies on the outline by construction: the score is
+    then that of views between the training views, as ``doodle eval`` sees them.
+    """
     from ..exporters.drawing import DrawOptions, draw_many
 
     drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     ink = on = rim = reached = 0
-    for cam, d, lm, m in zip(cameras, drawings, lines, masks):
-        img = ink_paths(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
+    for k, (cam, d, lm, m) in enumerate(zip(cameras, drawings, lines, masks)):
+        ops = [*d.layer("curves"), *d.layer("silhouettes")]
+        if traced is not None:
+            ops = [op for op in ops if not (op.id.startswith("contour-") and traced[int(op.id[8:])] == k)]
+        img = ink_paths(np.zeros((cam.height, cam.width), bool), ops)
         boundary = m ^ ndimage.binary_erosion(m)
         ink += int(img.sum())
         on += int((img & ndimage.binary_dilation(lm, iterations=tau_px)).sum())
@@ -179,7 +187,7 @@ def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndar
 def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],
                   lines: list[np.ndarray], masks: list[np.ndarray], min_inside: float = 0.9,
                   min_gain: float = MIN_OUTLINE_GAIN, min_precision: float = MIN_OUTLINE_PRECISION,
-                  curves_beside: Callable[[SuperquadricSet], CurveSet] | None = None,
+                  curves_beside: Callable[[SuperquadricSet], tuple[CurveSet, np.ndarray]] | None = None,
                   log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
     """Decide each superquadric's role (see the module doc): a drawn outline, an occluder only, or dropped.
 
@@ -189,7 +197,8 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     sketch's F over ``cameras`` rises by at least ``min_gain`` with it and at least ``min_precision`` of its
     own outline lies on the object's lines (:func:`outline_precision`). ``curves_beside(sq)`` gives the curves
     that would be chosen beside ``sq``'s drawn outlines (they avoid lines an outline already draws), so an
-    outline that only displaces sharp curves gains nothing; without it, ``curves`` stay as they are.
+    outline that only displaces sharp curves gains nothing, with the view each contour curve was traced in
+    (``traced`` of :func:`sketch_score`); without it, ``curves`` stay as they are.
     """
     if len(sq) == 0:
         return sq
@@ -201,12 +210,12 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     if len(sq) == 0:
         return sq
 
-    def score(drawn: np.ndarray, beside: CurveSet) -> float:
-        return sketch_score(StrokeSet(frame, beside, sq.subset(drawn)), cameras, lines, masks)[0]
+    def score(drawn: np.ndarray, beside: tuple[CurveSet, np.ndarray | None]) -> float:
+        return sketch_score(StrokeSet(frame, beside[0], sq.subset(drawn)), cameras, lines, masks, traced=beside[1])[0]
 
     precision = outline_precision(sq, frame, cameras, lines, masks)
     none = np.zeros(len(sq), bool)
-    base = curves_beside(replace(sq, outline=none)) if curves_beside is not None else curves
+    base = curves_beside(replace(sq, outline=none)) if curves_beside is not None else (curves, None)
     best = without = score(none, base)
     alone = np.array([score(np.eye(len(sq), dtype=bool)[i], base) for i in range(len(sq))])
     drawn = none
@@ -239,7 +248,7 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
     the hull's depth maps of ``cameras``) more often than it disagrees — hiding a visible point counts
     double, hiding one the face normals already hide counts nothing.
     """
-    from ..exporters.drawing import back_facing
+    from ..exporters.drawing import back_facing, occlusion_probes, off_contour
     from ..exporters.visibility import occluded
     from .evidence import _project
 
@@ -251,6 +260,7 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
     pts = bezier_points(curves.control_points, t).reshape(-1, 3)
     tt = np.tile(t, len(curves))
     normals = np.repeat(curves.normals, samples_per_curve, axis=0) if curves.normals is not None else None
+    gates = np.repeat(curves.gates, samples_per_curve)
     rows, views, truth, shown = [], [], [], []
     for v, (cam, zb) in enumerate(zip(cameras, depth)):
         u, w, z = _project(cam, pts.astype(np.float32))
@@ -260,15 +270,18 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
         facing = np.ones(len(idx), bool)
         if normals is not None:
             n = len(idx)
-            facing = ~back_facing(pts[idx], tt[idx], normals[idx], np.repeat(cam.center[None], n, 0),
-                                  np.repeat(cam.forward[None], n, 0), np.full(n, cam.projection == "orthographic"))
+            eyes, fwd = np.repeat(cam.center[None], n, 0), np.repeat(cam.forward[None], n, 0)
+            ortho = np.full(n, cam.projection == "orthographic")
+            facing = ~back_facing(pts[idx], tt[idx], normals[idx], eyes, fwd, ortho)
+            facing &= ~off_contour(pts[idx], tt[idx], normals[idx], gates[idx], eyes, fwd, ortho)
         rows.append(idx), views.append(np.full(len(idx), v)), truth.append(vis), shown.append(facing)
     idx, view = np.concatenate(rows), np.concatenate(views)
     truth, shown = np.concatenate(truth), np.concatenate(shown)
     margin = occlusion_margin * frame.radius
+    probe = occlusion_probes(pts[idx], tt[idx], None if normals is None else normals[idx], margin)
     keep = sq.drawn.copy()
     for i in np.flatnonzero(~sq.drawn):
-        hides = occluded(pts[idx], view, cameras, sq.subset(np.array([i])), margin) & shown
+        hides = occluded(probe, view, cameras, sq.subset(np.array([i])), margin) & shown
         gain = int((hides & ~truth).sum()) - 2 * int((hides & truth).sum())
         keep[i] = gain > 0
     return sq.subset(keep)

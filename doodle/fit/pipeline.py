@@ -29,7 +29,7 @@ from .outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_precision
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
-CHECKPOINT_VERSION = 2
+CHECKPOINT_VERSION = 3
 MAX_CHECKPOINT_BYTES = 1 << 30
 #: Gain (share of line pixels) of the strong curves, whose outline coverage decides whether superquadrics
 #: are fitted at all.
@@ -39,7 +39,7 @@ FLAT_END = 0.3
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
-               "evidence_size", "evidence_voxels", "discovery_min_gain")
+               "evidence_size", "evidence_voxels", "discovery_min_gain", "contours")
 
 
 @dataclass
@@ -349,19 +349,22 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     frame = scene.frame
     discovering = cfg.discover and work.masks is not None and cfg.curves != 0
     normals: np.ndarray | None = None
+    contour: np.ndarray | None = None
     candidates = strong = None
     if discovering:
         if ck is not None and ck.get("discovered") is not None:
             start = np.asarray(ck["discovered"]["control_points"].numpy(), dtype=np.float64)
             normals = np.asarray(ck["discovered"]["normals"].numpy(), dtype=np.float64)
+            contour = np.asarray(ck["discovered"]["contour"].numpy(), dtype=np.float64)
             outline = float(ck["discovered"]["outline"])
         else:
             from .discover import choose_curves, find_candidates
 
-            candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels, log=say)
+            candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
+                                         contours=cfg.contours, log=say)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
             strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
-            start, normals, outline = strong.control_points, strong.normals, strong.outline
+            start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline
         interior = surface = None
         method = "evidence"
     else:
@@ -424,7 +427,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     curve_params.to(device)
 
     def current_curves() -> CurveSet:
-        return CurveSet(curve_params.to_set(cfg.width_px).control_points, cfg.width_px, normals)
+        return CurveSet(curve_params.to_set(cfg.width_px).control_points, cfg.width_px, normals, contour)
 
     def current_strokes() -> StrokeSet:
         sq = final_sq if final_sq is not None else (sq_params.to_set() if sq_params is not None else SuperquadricSet())
@@ -444,9 +447,12 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 [f32(final_sq.scale), f32(final_sq.shape), f32(final_sq.rotation), f32(final_sq.translation),
                  f32(final_sq.drawn), f32(final_sq.drawn_cells)],
                 "discovered": None if not discovering else
-                {"control_points": f32(start), "normals": f32(normals), "outline": float(outline)},
+                {"control_points": f32(start), "normals": f32(normals), "contour": f32(contour),
+                 "outline": float(outline)},
             })
         return save
+
+    judge_views = spread_indices(len(work), OUTLINE_VIEWS)  # where superquadric outlines are judged
 
     def choose_beside(sq: SuperquadricSet, polish: bool, log: Callable[[str], None] = lambda m: None):
         """The choice of curves with ``sq``'s drawn outlines counted as drawn."""
@@ -457,22 +463,25 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio))) if sq.drawn.any() else None
         return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish, log=log)
 
-    def curves_beside(sq: SuperquadricSet) -> CurveSet:
+    def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
+        """The curves chosen beside ``sq``'s outlines, and per curve the judge view it was traced in (or -1)."""
         found = choose_beside(sq, polish=False)
-        return CurveSet(found.control_points, cfg.width_px, found.normals)
+        traced = np.searchsorted(judge_views, found.source).clip(0, len(judge_views) - 1)
+        traced = np.where(judge_views[traced] == found.source, traced, -1)
+        return CurveSet(found.control_points, cfg.width_px, found.normals, found.contour), traced
 
     def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
         """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
-        nonlocal start, normals, curve_params
+        nonlocal start, normals, contour, curve_params
 
         found = choose_beside(sq, polish=True, log=say)
-        start, normals = found.control_points, found.normals
+        start, normals, contour = found.control_points, found.normals, found.contour
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
         if len(sq) and not sq.drawn.all():
             from .outlines import useful_occluders
 
             ev = candidates.evidence
-            kept = useful_occluders(sq, CurveSet(start, cfg.width_px, normals), frame,
+            kept = useful_occluders(sq, CurveSet(start, cfg.width_px, normals, contour), frame,
                                     [ev.cameras[v] for v in candidates.views],
                                     [ev.depth[v] for v in candidates.views], ev.margin)
             if len(kept) < len(sq):
@@ -511,10 +520,10 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             from .evidence import object_lines
             from .outlines import keep_outlines
 
-            views = spread_indices(len(work), OUTLINE_VIEWS)
-            judge = ([work.cameras[v] for v in views], [object_lines(work.images[v], work.masks[v]) for v in views],
-                     [work.masks[v] for v in views])
-            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals), frame, *judge,
+            judge = ([work.cameras[v] for v in judge_views],
+                     [object_lines(work.images[v], work.masks[v]) for v in judge_views],
+                     [work.masks[v] for v in judge_views])
+            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
                                      curves_beside=curves_beside if candidates is not None else None, log=say)
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)

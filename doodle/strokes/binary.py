@@ -7,12 +7,13 @@ Layout (little-endian)::
            width_px f32
     quantisation: origin 3×f64, position step f64, scale step f64, position bits u8, scale bits u8
     version 2 only: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow,
-                              bit 2: outline cells follow)
+                              bit 2: outline cells follow, bit 3: contour gates follow)
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
                 rotations (M × (2 + 3·14) bits, "smallest three" quaternion components),
                 [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
-                normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)]
+                normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)],
+                [contour gates (N × GATE_BITS bits on [0, 1])]
     trailer: u16 length + zlib(JSON of provenance and extras)
 
 Version 1 is written when there is none of them (older readers read it); version 2 otherwise.
@@ -38,6 +39,7 @@ from .model import OUTLINE_CELLS, StrokeSet
 MAGIC = b"DDLB"
 BINARY_VERSION = 2
 NORMAL_BITS = 6
+GATE_BITS = 8
 #: Round-trip tolerance of positions and scales, as a fraction of the scene radius.
 REL_TOLERANCE = 2.5e-4
 SHAPE_BITS = 12
@@ -145,7 +147,10 @@ def encode(strokes: StrokeSet) -> bytes:
     cells = cells if m and not cells.all() else None
     if cells is not None:
         bits.append(cells.reshape(-1).astype(np.uint8))
-    flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2)
+    gates = strokes.curves.gates if n and strokes.curves.gates.any() else None
+    if gates is not None:
+        bits.append(_pack(_quantise(np.clip(gates, 0.0, 1.0), 0.0, 1.0 / (2**GATE_BITS - 1), GATE_BITS), GATE_BITS))
+    flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2) | ((gates is not None) << 3)
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     meta = {"provenance": strokes.provenance, "extra": strokes.extra}
@@ -205,9 +210,10 @@ def _decode(data: bytes) -> StrokeSet:
     if version == 2:
         flags = data[start]
         start += 1
-        if flags & ~7:
+        if flags & ~15:
             raise StrokeFileError(f"unknown flags {flags:#x}")
         n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0) + (m * N_CELLS if flags & 4 else 0)
+        n_bits += n * GATE_BITS if flags & 8 else 0
     stream_len = (n_bits + 7) // 8
     if len(data) < start + stream_len + 2:
         raise StrokeFileError(f"binary stroke data truncated ({len(data)} bytes, need {start + stream_len + 2})")
@@ -245,6 +251,8 @@ def _decode(data: bytes) -> StrokeSet:
         curves_doc["normals"] = _from_octahedral(take(n * 4 * 2, NORMAL_BITS).reshape(-1, 2)).reshape(n, 2, 2, 3).tolist()
     drawn = take(m, 1).astype(bool) if flags & 2 else np.ones(m, bool)
     cells = take(m * N_CELLS, 1).astype(bool).reshape(m, *OUTLINE_CELLS) if flags & 4 else None
+    if flags & 8:
+        curves_doc["contour"] = (take(n, GATE_BITS) / (2**GATE_BITS - 1)).tolist()
     extra = meta.get("extra", {}) if isinstance(meta.get("extra", {}), dict) else {}
     doc = {
         "format": FORMAT, "version": VERSION,

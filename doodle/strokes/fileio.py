@@ -33,7 +33,7 @@ _KNOWN = {
     "": {"format", "version", "scene", "curves", "superquadrics", "provenance"},
     "scene": {"up", "center", "radius", "camera"},
     "scene.camera": {"fov_deg", "distance", "elevation_deg", "width", "height", "azimuth_deg"},
-    "curves": {"control_points", "width_px", "normals"},
+    "curves": {"control_points", "width_px", "normals", "contour"},
 }
 
 
@@ -142,6 +142,14 @@ def _parse(data: Any) -> StrokeSet:
             control[i, j] = _vector(p, 3, f"curves.control_points[{i}][{j}]")
     width_px = _number(curves_d.get("width_px", 1.5), "curves.width_px", 0.0, 1000.0, lo_open=True)
     normals = _curve_normals(curves_d["normals"], len(cps)) if "normals" in curves_d else None
+    contour = None
+    if "contour" in curves_d:
+        value = curves_d["contour"]
+        if not isinstance(value, list) or len(value) != len(cps):
+            raise _Invalid(f"curves.contour: expected one number per curve ({len(cps)})")
+        contour = np.array([_number(v, f"curves.contour[{i}]", 0.0, 1.0) for i, v in enumerate(value)])
+        if normals is None and contour.any():
+            raise _Invalid("curves.contour: contour curves need curves.normals (their surface normals)")
 
     sq_list = _required(top, "superquadrics", "")
     if not isinstance(sq_list, list):
@@ -180,7 +188,7 @@ def _parse(data: Any) -> StrokeSet:
 
     extra = {s: e for s, e in (("", _extras(top, "")), ("scene", _extras(scene, "scene")),
                                ("scene.camera", _extras(cam, "scene.camera")), ("curves", _extras(curves_d, "curves"))) if e}
-    return StrokeSet(frame, CurveSet(control, width_px, normals), sq, dict(provenance), extra)
+    return StrokeSet(frame, CurveSet(control, width_px, normals, contour), sq, dict(provenance), extra)
 
 
 def _curve_normals(value: Any, n: int) -> np.ndarray:
@@ -250,6 +258,7 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
                    "width_px": float(strokes.curves.width_px),
                    **({"normals": [_floats(m) for m in np.round(strokes.curves.normals, 4)]}
                       if strokes.curves.normals is not None and len(strokes.curves) else {}),
+                   **({"contour": _floats(np.round(strokes.curves.gates, 4))} if strokes.curves.gates.any() else {}),
                    **extra.get("curves", {})},
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),

@@ -51,13 +51,25 @@ class CurveSet:
     control_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 3)))
     width_px: float = 1.5
     normals: np.ndarray | None = None
+    contour: np.ndarray | None = None
+    """Optional ``(N,)``: for a *contour curve* — where a smooth surface's outline lies for the views whose
+    rays graze it there — the largest ``|cos|`` between its normal (the first face's, which needs normals)
+    and the view ray at which a point is drawn; ``0`` for a feature curve, drawn from wherever its faces
+    allow. A contour curve is the outline only from near-grazing views: from the front it would be a line
+    across a smooth face."""
 
     def __len__(self) -> int:
         return int(self.control_points.shape[0])
 
+    @property
+    def gates(self) -> np.ndarray:
+        """``(N,)`` the contour gate of each curve (``0``: a feature curve; all ``0`` without ``contour``)."""
+        return np.zeros(len(self)) if self.contour is None else np.asarray(self.contour, np.float64)
+
     def subset(self, keep: np.ndarray) -> "CurveSet":
         """The curves selected by a boolean mask or index array."""
-        return CurveSet(self.control_points[keep], self.width_px, None if self.normals is None else self.normals[keep])
+        return CurveSet(self.control_points[keep], self.width_px, None if self.normals is None else self.normals[keep],
+                        None if self.contour is None else np.asarray(self.contour)[keep])
 
 
 OUTLINE_CELLS = (8, 16)

@@ -1,0 +1,201 @@
+"""Contour curves (``doodle.fit.rims``): the outline of smooth parts, traced in the training views and drawn
+only from the views that graze them."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from doodle.cameras import orbit_cameras
+from doodle.exporters import DrawOptions, draw, union_mask
+from doodle.exporters.drawing import occlusion_probes, off_contour
+from doodle.fit.discover import stroke_coverage
+from doodle.fit.evidence import Evidence, carve_hull, depth_maps
+from doodle.fit.rims import find_rims
+from doodle.scenes import Scene
+from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, dumps, loads
+from doodle.strokes.bezier import bezier_points
+from doodle.strokes.binary import decode, encode
+from doodle.strokes.model import DefaultCamera
+
+R = 0.6  # the ball's radius
+FRAME = SceneFrame(radius=1.0, camera=DefaultCamera(distance=4.0, elevation_deg=20.0, width=128, height=128))
+
+
+def _ball() -> SuperquadricSet:
+    return SuperquadricSet(np.full((1, 3), R), np.ones((1, 2)), np.array([[1.0, 0, 0, 0]]), np.zeros((1, 3)))
+
+
+def _cameras(views: int, elevations=(10.0, 35.0, 60.0)):
+    return [c for e in elevations for c in orbit_cameras(FRAME, views, elevation_deg=e)]
+
+
+@pytest.fixture(scope="module")
+def ball_rims():
+    cams = _cameras(12)
+    masks = [union_mask(_ball(), c) for c in cams]
+    scene = Scene(cams, [np.full((c.height, c.width, 3), 255, np.uint8) for c in cams], FRAME, masks)
+    grid, occupied = carve_hull(scene, 96)
+    rims = find_rims(cams, masks, grid, occupied, FRAME.center, FRAME.radius, 0.05, 2 * grid.voxel)
+    return cams, masks, grid, occupied, rims
+
+
+def _circle(radius: float, pieces: int = 8) -> np.ndarray:
+    """The circle of ``radius`` about the z axis as ``pieces`` cubics ``(pieces, 4, 3)``."""
+    a = np.linspace(0, 2 * np.pi, pieces + 1)
+    k = 4 / 3 * np.tan(np.pi / (2 * pieces)) * radius  # the arc's handle length
+    out = []
+    for a0, a1 in zip(a[:-1], a[1:]):
+        p0, p3 = radius * np.array([np.cos(a0), np.sin(a0), 0]), radius * np.array([np.cos(a1), np.sin(a1), 0])
+        t0, t1 = np.array([-np.sin(a0), np.cos(a0), 0]), np.array([-np.sin(a1), np.cos(a1), 0])
+        out.append([p0, p0 + k * t0, p3 - k * t1, p3])
+    return np.array(out)
+
+
+def _samples(rims, t=np.linspace(0, 1, 9)):
+    pts = bezier_points(rims.controls, t)  # (N, T, 3)
+    n = (1 - t)[None, :, None] * rims.normals[:, None, 0] + t[None, :, None] * rims.normals[:, None, 1]
+    return pts, n / np.linalg.norm(n, axis=2, keepdims=True)
+
+
+def test_a_balls_contour_curves_lie_on_its_contour_generators(ball_rims):
+    """Each view's outline, back-projected through the carved hull, lands on the ball where that view's rays
+    graze it, and carries the ball's surface normal there."""
+    cams, _, grid, _, rims = ball_rims
+    assert len(rims.controls) >= len(cams)  # at least one piece of outline a view
+    pts, n = _samples(rims)
+    radial = np.linalg.norm(pts, axis=2)
+    assert np.abs(radial - R).max() < 2.0 * grid.voxel  # on the sphere (the hull is a voxel or so wider)
+    assert np.median(np.abs(radial - R)) < 0.75 * grid.voxel
+    assert np.einsum("ntk,ntk->nt", n, pts / radial[..., None]).min() > 0.97  # the outward normal
+    eyes = np.array([cams[v].center for v in rims.view])[:, None, :]
+    ray = (pts - eyes) / np.linalg.norm(pts - eyes, axis=2, keepdims=True)
+    assert np.abs(np.einsum("ntk,ntk->nt", n, ray)).max() < 0.1  # grazed by its own view's rays
+
+
+def test_a_neighbouring_views_contour_draws_this_views_outline(ball_rims):
+    """Drawn from a view between the training views, the contour curves whose gate lets them through lie on
+    that view's outline — and only its outline is drawn."""
+    cams, _, _, _, rims = ball_rims
+    normals = np.repeat(rims.normals[:, :, None], 2, axis=2)
+    curves = CurveSet(rims.controls, 1.5, normals, np.full(len(rims.controls), 0.2))
+    between = orbit_cameras(replace(FRAME, camera=replace(FRAME.camera, azimuth_deg=15.0)), 12, elevation_deg=25.0)[0]
+    d = draw(StrokeSet(FRAME, curves), between, DrawOptions(tolerance=0.25))
+    assert not d.layer("curves") and d.layer("silhouettes")  # contour curves are outline
+    assert all(op.id.startswith("contour-") for op in d.layer("silhouettes"))
+    ink = np.concatenate([op.points() for op in d.layer("silhouettes")])
+    mask = union_mask(_ball(), between)
+    outline = mask ^ ndimage.binary_erosion(mask)
+    to_outline = ndimage.distance_transform_edt(~outline)
+    px = np.clip(np.floor(ink).astype(int), 0, 127)
+    assert np.quantile(to_outline[px[:, 1], px[:, 0]], 0.95) <= 1.5  # on this view's outline
+    drawn = np.zeros_like(mask)
+    drawn[px[:, 1], px[:, 0]] = True
+    assert (ndimage.distance_transform_edt(~drawn)[outline] <= 2).mean() > 0.9  # and all round it
+
+
+def test_a_contour_curve_is_drawn_only_where_the_view_grazes_it():
+    """The ball's equator with radial normals is the whole outline seen from above, and from an oblique view
+    only near the two points where it touches that view's outline."""
+    controls = _circle(R)
+    radial = controls[:, [0, 3]] / R
+    normals = np.repeat(radial[:, :, None], 2, axis=2)
+    curves = CurveSet(controls, 1.5, normals, np.full(len(controls), 0.2))
+    top = orbit_cameras(FRAME, 1, elevation_deg=89.0)[0]
+    side = orbit_cameras(FRAME, 1, elevation_deg=45.0)[0]
+    s = StrokeSet(FRAME, curves)
+    length = lambda d: sum(float(np.linalg.norm(np.diff(op.points(), axis=0), axis=1).sum()) for op in d.paths)  # noqa: E731
+    full = length(draw(s, top, DrawOptions(tolerance=0.25)))
+    oblique = length(draw(s, side, DrawOptions(tolerance=0.25)))
+    assert full > 0.97 * 2 * np.pi * R * top.fx / FRAME.camera.distance  # the whole ring
+    assert 0.02 * full < oblique < 0.25 * full  # two short arcs
+    # hidden-line modes do not bring the rest back: off the outline a contour curve is no line at all
+    assert length(draw(s, side, DrawOptions(tolerance=0.25, hidden="dash"))) == pytest.approx(oblique, rel=0.05)
+    feature = replace(curves, contour=np.zeros(len(controls)))
+    assert length(draw(replace(s, curves=feature), side, DrawOptions(tolerance=0.25, hidden="show"))) > 0.5 * full
+
+
+def test_off_contour_and_occlusion_probes():
+    p = np.array([[1.0, 0, 0], [1.0, 0, 0]])
+    n = np.zeros((2, 2, 2, 3))
+    n[:, :, :] = [1.0, 0, 0]
+    eye_side = np.array([[1.0, -5, 0], [1.0, -5, 0]])  # rays graze the point (normal ⟂ ray)
+    eye_front = np.array([[6.0, 0, 0], [6.0, 0, 0]])  # rays hit it head on
+    fwd = np.zeros((2, 3))
+    ortho = np.zeros(2, bool)
+    gates = np.array([0.2, 0.0])  # a contour curve and a feature curve
+    assert off_contour(p, np.zeros(2), n, gates, eye_side, fwd, ortho).tolist() == [False, False]
+    assert off_contour(p, np.zeros(2), n, gates, eye_front, fwd, ortho).tolist() == [True, False]
+    probes = occlusion_probes(p, np.zeros(2), n, 0.05)
+    assert np.allclose(probes, [[1.05, 0, 0], [1.05, 0, 0]])  # tested a margin out along the normal
+    assert np.allclose(occlusion_probes(p, np.zeros(2), np.zeros((2, 2, 2, 3)), 0.05), p)  # no normal: in place
+
+
+def test_a_contour_curve_on_a_slightly_fat_occluder_is_still_drawn(ball_rims):
+    """An occluder a little wider than the part it stands for must not hide the part's outline, which its
+    rays graze; a second ball in front still hides it."""
+    cams, _, _, _, rims = ball_rims
+    normals = np.repeat(rims.normals[:, :, None], 2, axis=2)
+    s = StrokeSet(FRAME, CurveSet(rims.controls, 1.5, normals, np.full(len(rims.controls), 0.2)),
+                  replace(_ball(), scale=np.full((1, 3), R * 1.01), outline=np.zeros(1, bool)))
+    cam = cams[1]
+    drawn = sum(len(op.points()) for op in draw(s, cam).layer("silhouettes"))
+    alone = sum(len(op.points()) for op in draw(replace(s, superquadrics=SuperquadricSet()), cam).layer("silhouettes"))
+    assert drawn > 0.9 * alone
+    eye = cam.center
+    blocker = SuperquadricSet(np.full((1, 3), 0.9), np.ones((1, 2)), np.array([[1.0, 0, 0, 0]]),
+                              (0.5 * eye / np.linalg.norm(eye) * 2.0)[None], outline=np.zeros(1, bool))
+    hidden = sum(len(op.points()) for op in draw(replace(s, superquadrics=blocker), cam).layer("silhouettes"))
+    assert hidden < 0.3 * alone
+
+
+def test_contour_gates_survive_both_file_encodings(ball_rims):
+    rims = ball_rims[4]
+    k = min(len(rims.controls), 5)
+    normals = np.repeat(rims.normals[:k, :, None], 2, axis=2)
+    gates = np.r_[0.0, np.full(k - 1, 0.2)]
+    s = StrokeSet(FRAME, CurveSet(rims.controls[:k], 1.5, normals, gates))
+    back = loads(dumps(s))
+    assert np.allclose(back.curves.gates, gates)
+    binary = decode(encode(s))
+    assert np.allclose(binary.curves.gates, gates, atol=1 / 255)
+    plain = StrokeSet(FRAME, CurveSet(rims.controls[:k], 1.5, normals))
+    assert '"contour"' not in dumps(plain) and decode(encode(plain)).curves.contour is None
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda c: c.__setitem__("contour", [0.2]), "one number per curve"),
+    (lambda c: c.__setitem__("contour", ["x"] * len(c["control_points"])), "expected a number"),
+    (lambda c: c.__setitem__("contour", [1.5] * len(c["control_points"])), r"contour\[0\]: 1.5 outside"),
+    (lambda c: (c.pop("normals"), c.__setitem__("contour", [0.2] * len(c["control_points"]))), "need curves.normals"),
+])
+def test_bad_contour_gates_are_refused_with_the_field_named(ball_rims, edit, message):
+    import json
+
+    from doodle.errors import StrokeFileError
+
+    rims = ball_rims[4]
+    normals = np.repeat(rims.normals[:3, :, None], 2, axis=2)
+    doc = json.loads(dumps(StrokeSet(FRAME, CurveSet(rims.controls[:3], 1.5, normals, np.full(3, 0.2)))))
+    edit(doc["curves"])
+    with pytest.raises(StrokeFileError, match=message):
+        loads(json.dumps(doc))
+
+
+def test_a_contour_curve_is_not_counted_in_its_own_view(ball_rims):
+    """The choice judges a contour curve in the views other than the one it was traced in: there it lies on
+    the outline by construction."""
+    cams, masks, grid, occupied, rims = ball_rims
+    lines = [m ^ ndimage.binary_erosion(m) for m in masks]
+    ev = Evidence(grid, np.zeros(occupied.shape, np.float32), occupied, np.zeros(occupied.shape, np.int16), cams,
+                  lines, depth_maps(grid, occupied, cams), 6 * grid.voxel)
+    mine = rims.view == 0
+    gates, normals, source = np.full(mine.sum(), 0.3), rims.normals[mine], rims.view[mine]
+    own, _, _ = stroke_coverage(rims.controls[mine], ev, [0], gates=gates, contour_normals=normals)
+    loo, _, ink = stroke_coverage(rims.controls[mine], ev, [0], gates=gates, contour_normals=normals, source=source)
+    outline = int(lines[0].sum())
+    assert sum(len(c) for c in own) > 0.9 * outline  # its own view's whole outline
+    assert sum(len(c) for c in loo) == 0 and not ink.any()
