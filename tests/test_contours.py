@@ -199,3 +199,75 @@ def test_a_contour_curve_is_not_counted_in_its_own_view(ball_rims):
     outline = int(lines[0].sum())
     assert sum(len(c) for c in own) > 0.9 * outline  # its own view's whole outline
     assert sum(len(c) for c in loo) == 0 and not ink.any()
+
+
+# The occluder volume: the visual hull on a coarse grid, hiding what lies behind the object's bulk.
+
+def _box_occluder(lo, hi, voxel=0.05) -> "Occluder":
+    from doodle.strokes.model import Occluder
+
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    shape = tuple(int(v) for v in np.ceil((hi - lo) / voxel) + 1)
+    return Occluder(lo, voxel, np.eye(3), np.ones(shape, bool))
+
+
+def test_an_occluder_volume_hides_what_is_behind_it_and_not_its_own_surface():
+    """A box's back edge is hidden behind the box's volume; its front edge, lying on the volume's surface,
+    is not; a wire through the middle of a thin slab is not hidden by the slab it lies in."""
+    cam = orbit_cameras(FRAME, 1, elevation_deg=0.0)[0]
+    toward = cam.center / np.linalg.norm(cam.center)
+    assert np.isclose(np.abs(toward).max(), 1.0)  # along a world axis (view 0: azimuth 0, elevation 0)
+    box = _box_occluder([-0.4, -0.4, -0.4], [0.4, 0.4, 0.4])
+    front_face = 0.4 * toward
+    back_face = -0.4 * toward
+    edge = lambda c: np.array([c + [0, 0, -0.3], c + [0, 0, -0.1], c + [0, 0, 0.1], c + [0, 0, 0.3]])  # noqa: E731
+    normals = np.zeros((2, 2, 2, 3))
+    normals[0] = toward  # the front edge's faces look at the camera
+    normals[1] = -toward
+    s = StrokeSet(FRAME, CurveSet(np.stack([edge(front_face), edge(back_face)]), 1.5, normals), occluder=box)
+    d = draw(s, cam)
+    assert [op.id for op in d.layer("curves")] == ["curve-000"]
+    assert [op.id for op in draw(s, cam, DrawOptions(hidden="dash")).layer("hidden")] == ["hidden-curve-001"]
+    assert len(draw(s, cam, DrawOptions(hidden="show")).layer("curves")) == 2
+    thin = np.where(np.abs(toward) > 0.5, 0.02, 0.4)  # a slab facing the camera, thinner than the slack
+    slab = _box_occluder(-thin, thin)
+    wire = StrokeSet(FRAME, CurveSet(edge(np.zeros(3))[None]), occluder=slab)
+    assert [op.id for op in draw(wire, cam).layer("curves")] == ["curve-000"]
+
+
+def test_the_volume_blocks_exactly_the_segments_that_cross_it():
+    from doodle.exporters.visibility import volume_blocked
+
+    box = _box_occluder([0, 0, 0], [1, 1, 1], voxel=0.1)
+    o = np.array([[-1.0, 0.5, 0.5], [-1.0, 0.5, 0.5], [-1.0, 2.0, 0.5], [0.5, 0.5, 0.5]])
+    e = np.array([[2.0, 0.5, 0.5], [-0.2, 0.5, 0.5], [2.0, 2.0, 0.5], [0.5, 0.5, 3.0]])
+    assert volume_blocked(o, e, box).tolist() == [True, False, False, True]
+
+
+def test_occluder_volumes_survive_both_file_encodings_and_bad_ones_are_refused():
+    import json
+
+    from doodle.errors import StrokeFileError
+    from doodle.strokes.model import Occluder
+
+    rng = np.random.default_rng(0)
+    occ = Occluder(np.array([0.1, -0.2, 0.3]), 0.04, np.array([[0, 1.0, 0], [-1.0, 0, 0], [0, 0, 1.0]]),
+                   rng.random((7, 5, 9)) > 0.5)
+    s = StrokeSet(FRAME, occluder=occ)
+    for back in (loads(dumps(s)), decode(encode(s))):
+        assert np.array_equal(back.occluder.occupied, occ.occupied)
+        assert np.allclose(back.occluder.axes, occ.axes) and np.allclose(back.occluder.origin, occ.origin)
+        assert back.occluder.voxel == pytest.approx(occ.voxel)
+    doc = json.loads(dumps(s))
+    for edit, message in [
+        (lambda o: o.__setitem__("shape", [7, 5, 10]), "expected 44 bytes"),
+        (lambda o: o.__setitem__("shape", [7, 5, 1000]), r"occluder.shape\[2\]"),
+        (lambda o: o.__setitem__("bits", "not base64!"), "not base64"),
+        (lambda o: o.__setitem__("axes", [[1, 0, 0], [1, 0, 0], [0, 0, 1]]), "orthonormal"),
+        (lambda o: o.__setitem__("voxel", 0), "occluder.voxel"),
+        (lambda o: o.pop("origin"), "occluder.origin: missing"),
+    ]:
+        bad = json.loads(json.dumps(doc))
+        edit(bad["occluder"])
+        with pytest.raises(StrokeFileError, match=message):
+            loads(json.dumps(bad))

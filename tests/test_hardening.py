@@ -329,8 +329,9 @@ json_values = st.recursive(st.none() | st.booleans() | st.integers() | st.floats
 @FUZZ
 @given(st.data())
 def test_fuzz_stroke_json_reader(data):
-    doc = _doc(random_strokes(data.draw(st.integers(0, 100)), n_curves=2, n_sq=1))
-    path = data.draw(st.sampled_from([("scene",), ("scene", "camera"), ("curves",), ("",)]))
+    doc = _doc(random_strokes(data.draw(st.integers(0, 100)), n_curves=2, n_sq=1, extras=data.draw(st.booleans())))
+    path = data.draw(st.sampled_from([("scene",), ("scene", "camera"), ("curves",), ("",)]
+                                     + ([("occluder",)] if "occluder" in doc else [])))
     target = doc
     for key in path:
         target = target if key == "" else target[key]
@@ -345,7 +346,7 @@ def test_fuzz_stroke_json_reader(data):
 @FUZZ
 @given(st.binary(max_size=400), st.integers(0, 400))
 def test_fuzz_binary_reader(noise, at):
-    good = bytearray(encode(random_strokes(1, n_curves=2, n_sq=1)))
+    good = bytearray(encode(random_strokes(1, n_curves=2, n_sq=1, extras=at % 2 == 1)))
     at = min(at, len(good))
     bad = bytes(good[:at]) + noise + bytes(good[at + len(noise):])
     try:
@@ -372,7 +373,7 @@ def test_fuzz_convert_round_trip(data):
     from doodle.strokes.binary import REL_TOLERANCE
 
     s = random_strokes(data.draw(st.integers(0, 10**6)), n_curves=data.draw(st.integers(0, 5)),
-                       n_sq=data.draw(st.integers(0, 3)))
+                       n_sq=data.draw(st.integers(0, 3)), extras=data.draw(st.booleans()))
     s.frame.radius = data.draw(st.floats(1e-3, 1e3))
     try:
         back = decode(encode(loads(dumps(s))))
@@ -381,6 +382,10 @@ def test_fuzz_convert_round_trip(data):
     tol = REL_TOLERANCE * s.frame.radius * 1.01 + 1e-9
     assert np.abs(back.curves.control_points - s.curves.control_points).max(initial=0) <= tol
     assert np.abs(back.superquadrics.translation - s.superquadrics.translation).max(initial=0) <= tol
+    assert np.abs(back.curves.gates - s.curves.gates).max(initial=0) <= 0.5 / 255 + 1e-9
+    assert (back.occluder is None) == (s.occluder is None)
+    if s.occluder is not None:
+        assert np.array_equal(back.occluder.occupied, s.occluder.occupied)
 
 
 def test_scene_without_data_is_one_line(tmp_path):

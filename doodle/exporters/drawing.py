@@ -10,7 +10,7 @@ import numpy as np
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.bezier import bezier_points
-from ..strokes.model import CurveSet, StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, Occluder, StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
@@ -97,25 +97,39 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
     for camera in cameras:
         check_camera(strokes, camera)
     sq = strokes.superquadrics
-    margin = opt.occlusion_margin * strokes.frame.radius if opt.hidden != "show" and len(sq) else None
+    volume = strokes.occluder if opt.hidden != "show" else None
+    margin = opt.occlusion_margin * strokes.frame.radius if opt.hidden != "show" and (len(sq) or volume) else None
     near = 1e-3 * strokes.frame.radius
     paths: list[list[PathOp]] = [[] for _ in cameras]
     if opt.silhouettes and sq.drawn.any():
-        for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near)):
+        for mine, ops in zip(paths, _silhouette_paths(sq, cameras, opt, margin, near, volume)):
             mine.extend(ops)
     curves = strokes.curves
     # contour curves are outline (drawn with the silhouettes), the others feature lines
     contour = (curves.gates > 0) & (curves.normals is not None)
     wanted = np.flatnonzero(np.where(contour, opt.silhouettes, opt.curves))
     if len(wanted):
-        for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near)):
+        for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near, volume)):
             mine.extend(ops)
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
 
 
+def silhouette_hidden(points: np.ndarray, normals: np.ndarray, owner: np.ndarray, view: np.ndarray,
+                      cameras: list[Camera], sq: SuperquadricSet, margin: float, volume: Occluder | None = None
+                      ) -> np.ndarray:
+    """Whether superquadric contour points ``(P, 3)`` (unit ``normals``, ``owner`` superquadric, seen from
+    ``cameras[view]``) are hidden: by the other superquadrics (never by their own, convex one, whose surface
+    their rays only graze), or by the occluder ``volume``, tested ``margin`` out along the normal."""
+    hidden = occluded(points, view, cameras, sq, margin, exclude=owner)
+    if volume is not None:
+        hidden |= occluded(points + margin * normals, view, cameras, SuperquadricSet(), margin, volume=volume)
+    return hidden
+
+
 def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions, margin: float | None,
-                      near: float) -> list[list[PathOp]]:
-    """Per camera, the visible (and hidden) runs of the union's contour as cubic paths."""
+                      near: float, volume: Occluder | None = None) -> list[list[PathOp]]:
+    """Per camera, the visible (and hidden) runs of the union's contour as cubic paths (hidden also behind
+    the occluder ``volume``, tested a margin out along the surface normal)."""
     drawn = sq.drawn  # occluder-only superquadrics hide things but draw no contour
     polys = [(v, i, p, n) for v, camera in enumerate(cameras)
              for i, p, n in contour_polylines(sq, camera, *opt.silhouette_grid) if drawn[i]]
@@ -131,7 +145,7 @@ def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptio
         hidden = np.zeros(len(points), bool)
     else:  # a contour point is never hidden by its own convex superquadric
         owner = np.repeat([i for _, i, _, _ in polys], sizes)
-        hidden = occluded(points, view, cameras, sq, margin, exclude=owner)
+        hidden = silhouette_hidden(points, normals, owner, view, cameras, sq, margin, volume)
     depth, uv, tangent = np.empty(len(points)), np.empty((len(points), 2)), np.empty((len(points), 2))
     for v, camera in enumerate(cameras):
         mine = view == v
@@ -223,11 +237,12 @@ def occlusion_probes(points: np.ndarray, t: np.ndarray, normals: np.ndarray | No
 
 
 def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras: list[Camera],
-                 opt: DrawOptions, margin: float | None, near: float) -> list[list[PathOp]]:
+                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None = None
+                 ) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
 
-    A curve point is hidden when the superquadrics cover it (``margin`` given) or when both faces of its
-    normals turn away from the camera (unless ``opt.hidden`` is ``show``). A contour curve's points are not
+    A curve point is hidden when the superquadrics or the occluder ``volume`` cover it (``margin`` given) or
+    when both faces of its normals turn away from the camera (unless ``opt.hidden`` is ``show``). A contour curve's points are not
     drawn at all, in any layer, where the view does not graze the surface (:func:`off_contour`): there they
     are no line of the object, hidden or not; the rest goes in the silhouettes layer (ids ``contour-NNN``).
     ``ids``: each curve's index in the stroke set, for the path ids."""
@@ -248,7 +263,7 @@ def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras
         if margin is not None:
             probe = occlusion_probes(points, t, None if curves.normals is None else curves.normals[interval_curve[rows]],
                                      margin)
-            hidden |= occluded(probe, interval_view[rows], cameras, sq, margin)
+            hidden |= occluded(probe, interval_view[rows], cameras, sq, margin, volume=volume)
         if normals is not None:
             v = interval_view[rows]
             hidden |= back_facing(points, t, normals[interval_curve[rows]], eyes[v], dirs[v], ortho[v])

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cameras import Camera
-from ..strokes.model import SuperquadricSet
+from ..strokes.model import Occluder, SuperquadricSet
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
 
 
@@ -107,18 +107,57 @@ def ray_origins(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> 
     return np.where(ortho[:, None], points - depth * forward, centers)
 
 
+def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder, chunk: int = 1 << 12) -> np.ndarray:
+    """Whether each segment ``origins[k] → ends[k]`` ``(P, 3)`` passes through an occupied voxel of
+    ``volume``, ``(P,)``: sampled every half voxel, only where it crosses the grid's box."""
+    P = len(origins)
+    out = np.zeros(P, bool)
+    if P == 0 or not volume.occupied.any():
+        return out
+    shape = np.array(volume.occupied.shape, float)
+    a = ((origins - volume.origin) @ volume.axes.T) / volume.voxel  # grid coordinates: voxel centres at integers
+    b = ((ends - volume.origin) @ volume.axes.T) / volume.voxel
+    t_in, t_out = _slab(a - (shape - 1) / 2, b - a, (shape + 1) / 2)  # the segment is t ∈ [0, 1]
+    t_in, t_out = np.clip(t_in, 0, 1), np.clip(t_out, 0, 1)
+    length = np.linalg.norm(b - a, axis=1)
+    crossing = np.flatnonzero((t_out > t_in) & (length > 0))
+    padded = np.pad(volume.occupied, 1)
+    for k in range(0, len(crossing), chunk):
+        idx = crossing[k:k + chunk]
+        n = int(np.ceil(((t_out[idx] - t_in[idx]) * length[idx]).max() * 2)) + 1
+        s = np.linspace(0, 1, n)
+        t = t_in[idx, None] + (t_out[idx] - t_in[idx])[:, None] * s  # (I, n)
+        q = np.rint(a[idx, None, :] + t[..., None] * (b - a)[idx, None, :]).astype(np.int64) + 1
+        for axis in range(3):  # outside the grid lands in the empty padding
+            np.clip(q[..., axis], 0, padded.shape[axis] - 1, out=q[..., axis])
+        out[idx] = padded[q[..., 0], q[..., 1], q[..., 2]].any(axis=1)
+    return out
+
+
+#: Voxels of slack a point keeps against the occluder volume beyond ``margin``: the volume is the visual
+#: hull on a coarse grid, a voxel or so wider than the object, and a wire inside it must not hide itself.
+VOLUME_SLACK = 1.5
+
+
 def occluded(points: np.ndarray, view: np.ndarray, cameras: list[Camera], sq: SuperquadricSet, margin: float,
-                  samples: int = 32, exclude: np.ndarray | None = None) -> np.ndarray:
+             samples: int = 32, exclude: np.ndarray | None = None, volume: Occluder | None = None) -> np.ndarray:
     """Points ``(P, 3)`` hidden from ``cameras[view[k]]`` by the union, ``(P,)``: one query for many views.
 
     The march stops ``margin`` (scene units) short of each point, so points on or just under the union's
-    surface — feature curves lying on the object the superquadrics only approximate — stay visible.
+    surface — feature curves lying on the object the superquadrics only approximate — stay visible. With
+    ``volume`` (the stroke set's occluder), a point is also hidden behind its occupied voxels, up to
+    ``margin`` and :data:`VOLUME_SLACK` voxels short of it.
     """
     origins = ray_origins(cameras, points, view)
     d = points - origins
     L = np.linalg.norm(d, axis=1, keepdims=True)
     ends = origins + d * np.clip((L - margin) / np.maximum(L, 1e-12), 0, 1)
-    return segments_blocked(origins, ends, sq, samples, exclude)
+    hidden = segments_blocked(origins, ends, sq, samples, exclude)
+    if volume is not None:
+        stop = margin + VOLUME_SLACK * volume.voxel
+        ends = origins + d * np.clip((L - stop) / np.maximum(L, 1e-12), 0, 1)
+        hidden |= volume_blocked(origins, ends, volume)
+    return hidden
 
 
 def union_mask(sq: SuperquadricSet, camera: Camera, samples: int = 48, far: float | None = None) -> np.ndarray:

@@ -29,6 +29,9 @@ class FitConfig:
     """Discovery also offers each training view's outline as contour curves (``doodle.fit.rims``): curves
     drawn only from the views that graze them, which outline smooth parts no fixed curve or superquadric
     draws."""
+    occluder: bool = True
+    """Store the visual hull, on a coarse grid, in the stroke file as an occluder: the exporters hide the
+    curves and outlines behind it (with masks only). Occluder-only superquadrics are then not kept."""
     discovery_min_gain: float = 0.0005
     """Discovery keeps adding strokes while the next one newly explains at least this share of all line
     pixels over the views."""

@@ -62,8 +62,13 @@ STRAY_LENGTH = 0.02
 #: A contour curve's gain counts this much against a feature curve's: where both draw a line (a sharp edge on
 #: the outline), the feature curve, which every view sees, is the one to keep.
 CONTOUR_WEIGHT = 0.7
+#: Each contour curve is also offered as a feature curve, drawn from every side its faces allow: where the
+#: outline runs along a crease, the view's trace of it is the crease itself, often longer and cleaner than
+#: the evidence's ridges there.
 RIM_FEATURES = True
-OUTLINE_WEIGHT = 1.0
+#: A pixel of the masks' outline counts this much in a stroke's gain against one of the lines inside: the
+#: outline is what makes an object recognisable, and inside the lines are busy (studs, print, shading).
+OUTLINE_WEIGHT = 1.5
 #: The ridge threshold's evidence level; a bridge across a gap needs half of it on average.
 BRIDGE_EVIDENCE = 0.15
 _NEIGHBOURS = np.array([(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
@@ -440,7 +445,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
                           for m, o in zip((scene.masks[v] for v in views), offsets)])
     seconds["coverage"] = time.perf_counter() - t
     log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls) - n_rims} candidate "
-        f"cubics" + (f" + {n_rims} contour cubics" if contours else "") + f" (evidence {seconds['evidence']:.1f} s, "
+        f"cubics" + (f" + {n_rims // k} contour cubics (each offered {k} ways)" if contours else "") +
+        f" (evidence {seconds['evidence']:.1f} s, "
         f"curves {seconds['curves']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")")
     return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds,
                       gates, normals, source)
@@ -506,7 +512,7 @@ def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, t
     return choose_curves(cand, max_curves, min_gain, log=log)
 
 
-def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1) -> np.ndarray:
+def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None) -> np.ndarray:
     """Line pixels (global ids over the selection views) that the superquadrics' visible outline draws, within
     ``reach`` pixels: a smooth part's outline is only as exact as its superquadric, and lines beside it are
     the same outline, not a place for curves (which would read as ticks along the rim)."""
@@ -514,6 +520,7 @@ def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1) -> np.ndarray
     from ..strokes.model import CurveSet, StrokeSet
 
     cams = [cand.evidence.cameras[v] for v in cand.views]
-    drawings = draw_many(StrokeSet(frame, CurveSet(), sq), cams, DrawOptions(curves=False, hidden="hide", tolerance=0.5))
+    drawings = draw_many(StrokeSet(frame, CurveSet(), sq, occluder=occluder), cams,
+                         DrawOptions(curves=False, hidden="hide", tolerance=0.5))
     pixels = [np.concatenate([op.points() for op in d.layer("silhouettes")] or [np.zeros((0, 2))]) for d in drawings]
     return cand.pixel_ids(pixels, reach)

@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..cameras import Camera
-from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 from .outlines import ink_paths, raster_layer
 
 MIN_HIDDEN_ON_LINES = 0.7
@@ -35,12 +35,14 @@ def _curve_owner(path_id: str) -> int:
 
 
 def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera],
-                   lines: list[np.ndarray], min_share: float = MIN_HIDDEN_ON_LINES, tau_px: int = 2) -> np.ndarray:
+                   lines: list[np.ndarray], min_share: float = MIN_HIDDEN_ON_LINES, tau_px: int = 2,
+                   occluder: Occluder | None = None) -> np.ndarray:
     """``bool (N,)``: the curves whose facing hides ink that the views' lines confirm (their normals should
     be zeros).
 
     Args:
-        sq: the superquadrics, which hide curves either way (drawn with them, so only facing is judged).
+        sq: the superquadrics, which hide curves either way (drawn with them, so only facing is judged), as
+            does the ``occluder``.
         cameras, lines: training views and their line maps ``bool (H, W)``: the mask's outline and the image's
             strong edges (:func:`.evidence.object_lines` with ``thin=0``). Not thin parts' axes: a thin part's
             hidden edges lie beside its axis as closely as its visible ones (the chair's legs).
@@ -52,12 +54,12 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
     from ..exporters.drawing import DrawOptions, draw_many
 
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5)
-    drawings = draw_many(StrokeSet(frame, curves, sq), cameras, opts)
+    drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder), cameras, opts)
     facing = raster_layer(drawings, cameras, "curves", _curve_owner)
     # the curves again without normals; the outlines are the same, so they are not drawn twice
     plain_normals = curves.normals.copy()
     plain_normals[features] = 0.0
-    plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=plain_normals), sq), cameras,
+    plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=plain_normals), sq, occluder=occluder), cameras,
                                    replace(opts, silhouettes=False)), cameras, "curves", _curve_owner)
     gain, cost = np.zeros(len(curves)), np.zeros(len(curves))
     for cam, d, with_normals, without, lm in zip(cameras, drawings, facing, plain, lines):

@@ -23,7 +23,7 @@ from scipy import ndimage
 
 from ..cameras import Camera
 from ..strokes.bezier import bezier_points
-from ..strokes.model import OUTLINE_CELLS, CurveSet, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import OUTLINE_CELLS, CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 
 MIN_OUTLINE_GAIN = 0.002
 """A superquadric's outline is drawn when it raises the training views' sketch F by at least this much."""
@@ -93,16 +93,16 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
 
 
 def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
-                      masks: list[np.ndarray], tau: float = 0.008) -> np.ndarray:
-    """Per superquadric, the share of its own visible outline (the others hiding what lies behind it) within
-    ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks' boundary, pooled over
-    ``cameras``."""
+                      masks: list[np.ndarray], tau: float = 0.008, occluder: Occluder | None = None) -> np.ndarray:
+    """Per superquadric, the share of its own visible outline (the others and the ``occluder`` hiding what lies
+    behind it) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks'
+    boundary, pooled over ``cameras``."""
     from ..exporters.drawing import DrawOptions, draw_many
 
     # Hiding uses every superquadric whether drawn or not, so one drawing of all of them, split by owner,
     # gives each one's outline as drawn alone.
     every = replace(sq, outline=np.ones(len(sq), bool))
-    drawings = draw_many(StrokeSet(frame, CurveSet(), every), cameras,
+    drawings = draw_many(StrokeSet(frame, CurveSet(), every, occluder=occluder), cameras,
                          DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
     for cam, per, lm, m in zip(cameras, raster_layer(drawings, cameras, "silhouettes", _silhouette_owner),
@@ -117,16 +117,16 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
 
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
                     masks: list[np.ndarray], tau: float = 0.008, min_share: float = MIN_CELL_SHARE,
-                    grid: tuple[int, int] = (32, 64)) -> np.ndarray:
+                    grid: tuple[int, int] = (32, 64), occluder: Occluder | None = None) -> np.ndarray:
     """``(M, *OUTLINE_CELLS)`` bool: the cells of each superquadric's surface where its contour is confirmed.
 
     Every superquadric's contour is found in every view (as if all were drawn; each hidden by the others as the
-    exporters hide it), and each visible contour vertex votes in its cell: on (within ``tau`` of the image size,
+    exporters hide it, with the ``occluder``), and each visible contour vertex votes in its cell: on (within ``tau`` of the image size,
     at least a pixel, of the view's ``lines`` or the mask's boundary) or off. A cell is kept when at least
     ``min_share`` of its votes are on; a cell no view saw is kept.
     """
+    from ..exporters.drawing import silhouette_hidden
     from ..exporters.silhouettes import contour_samples
-    from ..exporters.visibility import occluded
 
     m, n_cells = len(sq), OUTLINE_CELLS[0] * OUTLINE_CELLS[1]
     on, seen = np.zeros((m, n_cells)), np.zeros((m, n_cells))
@@ -141,7 +141,8 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
         idx = np.flatnonzero(s.on_union & (z > 1e-3 * frame.radius) & (u >= 0) & (v >= 0) & (u < W) & (v < H))
         if len(idx) == 0:
             continue
-        hidden = occluded(s.points[idx], np.zeros(len(idx), int), [cam], sq, 0.03 * frame.radius, exclude=owner[idx])
+        hidden = silhouette_hidden(s.points[idx], s.normals[idx], owner[idx], np.zeros(len(idx), int), [cam], sq,
+                                   0.03 * frame.radius, occluder)
         idx = idx[~hidden]
         reach = max(1, round(tau * max(W, H)))
         near = ndimage.binary_dilation(lm | (mask ^ ndimage.binary_erosion(mask)), iterations=reach)
@@ -151,11 +152,11 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
 
 
 def confirm_outlines(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
-                     masks: list[np.ndarray]) -> SuperquadricSet:
+                     masks: list[np.ndarray], occluder: Occluder | None = None) -> SuperquadricSet:
     """``sq`` with its drawn outlines drawn only where the views confirm them (:func:`confirmed_cells`)."""
     if not sq.drawn.any():
         return replace(sq, outline_cells=None)
-    cells = confirmed_cells(sq, frame, cameras, lines, masks) | ~sq.drawn[:, None, None]
+    cells = confirmed_cells(sq, frame, cameras, lines, masks, occluder=occluder) | ~sq.drawn[:, None, None]
     return replace(sq, outline_cells=None if cells.all() else cells)
 
 
@@ -188,7 +189,7 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
                   lines: list[np.ndarray], masks: list[np.ndarray], min_inside: float = 0.9,
                   min_gain: float = MIN_OUTLINE_GAIN, min_precision: float = MIN_OUTLINE_PRECISION,
                   curves_beside: Callable[[SuperquadricSet], tuple[CurveSet, np.ndarray]] | None = None,
-                  log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
+                  occluder: Occluder | None = None, log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
     """Decide each superquadric's role (see the module doc): a drawn outline, an occluder only, or dropped.
 
     A superquadric whose silhouette spills out of the masks (less than ``min_inside`` of it inside) would
@@ -211,29 +212,35 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
         return sq
 
     def score(drawn: np.ndarray, beside: tuple[CurveSet, np.ndarray | None]) -> float:
-        return sketch_score(StrokeSet(frame, beside[0], sq.subset(drawn)), cameras, lines, masks, traced=beside[1])[0]
+        strokes = StrokeSet(frame, beside[0], sq.subset(drawn), occluder=occluder)
+        return sketch_score(strokes, cameras, lines, masks, traced=beside[1])[0]
 
-    precision = outline_precision(sq, frame, cameras, lines, masks)
+    precision = outline_precision(sq, frame, cameras, lines, masks, occluder=occluder)
     none = np.zeros(len(sq), bool)
     base = curves_beside(replace(sq, outline=none)) if curves_beside is not None else (curves, None)
     best = without = score(none, base)
     alone = np.array([score(np.eye(len(sq), dtype=bool)[i], base) for i in range(len(sq))])
-    drawn = none
+    drawn, current = none, base
     for i in np.argsort(-alone):
         if precision[i] < min_precision:
             log(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} of its "
                 f"outline lies on the object's lines)")
             continue
-        if alone[i] < without + min_gain:
+        if alone[i] < without - min_gain:
             log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {alone[i]:.3f} with it, "
                 f"{without:.3f} with the curves alone)")
             continue
         trial = drawn.copy()
         trial[i] = True
-        f = score(trial, curves_beside(replace(sq, outline=trial)) if curves_beside is not None else base)
-        if f >= best + min_gain:
-            log(f"superquadrics: one draws its outline (sketch F {best:.3f} → {f:.3f})")
-            drawn, best = trial, f
+        beside = curves_beside(replace(sq, outline=trial)) if curves_beside is not None else base
+        f = score(trial, beside)
+        # As good, with fewer curves: one exact outline instead of the contour curves of many views beside each
+        # other (a ball's rim drawn by a circle, not by a bundle of arcs)
+        simpler = len(beside[0]) < len(current[0]) and f >= best - min_gain
+        if f >= best + min_gain or simpler:
+            log(f"superquadrics: one draws its outline (sketch F {best:.3f} → {f:.3f}, {len(beside[0])} curves beside "
+                f"it instead of {len(current[0])})")
+            drawn, best, current = trial, max(f, best), beside
         else:
             log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {f:.3f} with it and "
                 f"the curves beside it, {best:.3f} without)")

@@ -20,7 +20,7 @@ from ..atomic import atomic_path
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..scenes import Scene
-from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 from .config import FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
@@ -85,11 +85,12 @@ def _validate(cfg: FitConfig, scene: Scene) -> None:
         raise DoodleError(f"{scene.source}: need at least 2 views to fit, found {len(scene)}")
 
 
-def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3) -> list[np.ndarray]:
+def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3,
+                      occluder: Occluder | None = None) -> list[np.ndarray]:
     """Per camera, the pixels within ``grow_px`` of the union's visible silhouette as the exporter draws it."""
     from ..exporters.drawing import DrawOptions, draw_many
 
-    strokes = StrokeSet(frame, CurveSet(), sq)
+    strokes = StrokeSet(frame, CurveSet(), sq, occluder=occluder)
     drawings = draw_many(strokes, cameras, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     out = []
     for cam, per in zip(cameras, raster_layer(drawings, cameras, "silhouettes", lambda _: 0)):
@@ -299,12 +300,13 @@ def _superquadrics_from_checkpoint(tensors: list) -> SuperquadricSet:
 
 def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
                       judge: tuple[list[Camera], list[np.ndarray], list[np.ndarray]],
-                      finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None]) -> SuperquadricSet:
+                      finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None],
+                      occluder: Occluder | None = None) -> SuperquadricSet:
     """Judge the drawn outlines again among the superquadrics that stay (``judge``: the cameras, line maps and
     masks of :func:`~doodle.fit.outlines.keep_outlines`): once occluders that hid parts of an outline are
     dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its outline on the
     object's lines to 64 %). One that now strays draws no outline, and ``finish`` chooses the curves again."""
-    precision = outline_precision(sq, frame, *judge)
+    precision = outline_precision(sq, frame, *judge, occluder=occluder)
     stray = sq.drawn & (precision < MIN_OUTLINE_PRECISION)
     if not stray.any():
         return sq
@@ -342,6 +344,11 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         say(f"resuming from {ckpt_path} ({ck['stage']} stage, step {ck['step']})")
 
     work = working_scene(scene, cfg.size)
+    occluder = None
+    if cfg.occluder and work.masks is not None:
+        from .volume import hull_occluder
+
+        occluder = hull_occluder(work)
     rng = np.random.default_rng(cfg.seed)
     gen = torch.Generator(device=device)
     gen.manual_seed(cfg.seed)
@@ -431,7 +438,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     def current_strokes() -> StrokeSet:
         sq = final_sq if final_sq is not None else (sq_params.to_set() if sq_params is not None else SuperquadricSet())
-        return _stroke_set(frame, scene, current_curves() if stage == "curves" else CurveSet(), sq, cfg, method, 0.0)
+        return _stroke_set(frame, scene, current_curves() if stage == "curves" else CurveSet(), sq, cfg, method, 0.0,
+                           occluder)
 
     def checkpointer(stage_name: str):
         def save(state: StageState) -> None:
@@ -460,7 +468,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
         # An outline counts as drawn within 1.5 working pixels (the evidence views are finer).
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
-        taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio))) if sq.drawn.any() else None
+        taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio)), occluder) if sq.drawn.any() else None
         return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish, log=log)
 
     def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
@@ -477,6 +485,10 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         found = choose_beside(sq, polish=True, log=say)
         start, normals, contour = found.control_points, found.normals, found.contour
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
+        if len(sq) and not sq.drawn.all() and occluder is not None:
+            say(f"superquadrics: {int((~sq.drawn).sum())} that only hide what is behind them dropped (the hull "
+                "occluder does that)")
+            return sq.subset(sq.drawn)
         if len(sq) and not sq.drawn.all():
             from .outlines import useful_occluders
 
@@ -524,18 +536,19 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                      [object_lines(work.images[v], work.masks[v]) for v in judge_views],
                      [work.masks[v] for v in judge_views])
             final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
-                                     curves_beside=curves_beside if candidates is not None else None, log=say)
+                                     curves_beside=curves_beside if candidates is not None else None,
+                                     occluder=occluder, log=say)
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)
             if judge is not None and final_sq.drawn.any():
-                final_sq = _recheck_outlines(final_sq, frame, judge, finish_discovery, say)
+                final_sq = _recheck_outlines(final_sq, frame, judge, finish_discovery, say, occluder)
         if judge is not None and final_sq.drawn.any():
             from .evidence import object_lines
 
             # Last, with the curves chosen: curves picked to fill an outline's gaps came out as ticks (the
             # snowman's nose: 3 curves → 7, held-out F no better). Every view votes (1.4 s for 100 at 256 px).
             lines = [object_lines(image, mask) for image, mask in zip(work.images, work.masks)]
-            final_sq = confirm_outlines(final_sq, frame, work.cameras, lines, work.masks)
+            final_sq = confirm_outlines(final_sq, frame, work.cameras, lines, work.masks, occluder)
             cells = final_sq.outline_cells
             if cells is not None:
                 say(f"superquadrics: outlines drawn where the views confirm them ({int((~cells).sum())} of "
@@ -549,7 +562,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     steps = cfg.curve_iterations
     if not interrupted and len(curve_params) and steps > 0:
-        exclude = silhouette_pixels(final_sq, frame, work.cameras) if len(final_sq) else None
+        exclude = silhouette_pixels(final_sq, frame, work.cameras, occluder=occluder) if len(final_sq) else None
         targets = build_targets(work, str(device), exclude)
         objective.begin(targets, frame, gen)
         lr = cfg.lr_curves * frame.radius * (0.25 if discovering else 1.0)  # discovered curves only need polish
@@ -567,16 +580,16 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         curves, _ = prune_curves(curves, targets, cfg.curve_max_distance_px)
         say(f"curves: kept {len(curves)} of {n_before} (the others do not lie on lines across the views)")
     if discovering and len(curves) and work.masks is not None:
-        curves = _confirm_hiding(curves, final_sq, frame, work, say)
+        curves = _confirm_hiding(curves, final_sq, frame, work, say, occluder)
     seconds = time.perf_counter() - clock_start
-    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds)
+    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, occluder)
     if ckpt_path is not None and not interrupted:
         ckpt_path.unlink(missing_ok=True)
     return FitResult(strokes, interrupted, seconds, messages)
 
 
 def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, work: Scene,
-                    say: Callable[[str], None]) -> CurveSet:
+                    say: Callable[[str], None], occluder: Occluder | None = None) -> CurveSet:
     """The curves with facing kept only where the training views do not contradict it (:mod:`.hiding`)."""
     from .evidence import object_lines
     from .hiding import wrongly_hidden
@@ -584,7 +597,7 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
     views = spread_indices(len(work), OUTLINE_VIEWS)
     # without thin parts' axes: a thin part's hidden edge lies beside its axis, as near as its visible one
     wrong = wrongly_hidden(curves, sq, frame, [work.cameras[v] for v in views],
-                           [object_lines(work.images[v], work.masks[v], thin=0) for v in views])
+                           [object_lines(work.images[v], work.masks[v], thin=0) for v in views], occluder=occluder)
     if not wrong.any():
         return curves
     say(f"curves: {int(wrong.sum())} drawn from every side (the views see what their faces would hide)")
@@ -594,10 +607,10 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
 
 
 def _stroke_set(frame: SceneFrame, scene: Scene, curves: CurveSet, sq: SuperquadricSet, cfg: FitConfig,
-                method: str, seconds: float) -> StrokeSet:
+                method: str, seconds: float, occluder: Occluder | None = None) -> StrokeSet:
     return StrokeSet(
         frame=SceneFrame(frame.up.copy(), frame.center.copy(), frame.radius, DefaultCamera(**vars(frame.camera))),
-        curves=curves, superquadrics=sq,
+        curves=curves, superquadrics=sq, occluder=occluder,
         provenance={"tool": f"doodle {__version__}", "source": scene.source, "objective": cfg.objective,
                     "iterations": cfg.curve_iterations, "superquadric_iterations": cfg.sq_iterations,
                     "init": method, "seed": cfg.seed, "seconds": round(seconds, 2)},

@@ -17,6 +17,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..scenes import Scene
+from ..strokes.model import Occluder
 from .evidence import VoxelGrid, _project, carve_hull
 
 
@@ -58,6 +59,21 @@ def thick_volume(scene: Scene, thin: float = 0.06, max_voxels: int = 96) -> Volu
         thin_px += int((mask & ~masks[-1]).sum())
         all_px += int(mask.sum())
     return Volume(pts.astype(np.float64), masks, thin_px / max(all_px, 1))
+
+
+OCCLUDER_VOXELS = 64
+"""Voxels along the longest side of the occluder volume a fit stores: hidden-line removal needs the object's
+bulk, not its detail (at 48, 64 or 96 the held-out F is the same to ±0.004), and 64 keeps it to 1–2 kB."""
+
+
+def hull_occluder(scene: Scene, max_voxels: int = OCCLUDER_VOXELS) -> Occluder:
+    """The visual hull carved from the scene's masks on a coarse grid, as the stroke set's occluder: it hides
+    the curves and outlines behind the object's bulk where no superquadric stands (a box's back edges seen
+    through its front, a tripod's far leg behind its microphone)."""
+    grid, occupied = carve_hull(scene, max_voxels)
+    # A voxel in: the hull fills concavities no view looks into (beside Lego's tracks, on its plate), where
+    # visible edges lie inside it; shrunk, it hides them less (Lego held-out recall 0.77 → 0.80).
+    return Occluder(grid.origin.copy(), float(grid.voxel), grid.axes.copy(), ndimage.binary_erosion(occupied))
 
 
 def _splat(cam, pts: np.ndarray, grid: VoxelGrid) -> np.ndarray:

@@ -14,7 +14,7 @@ Layout (little-endian)::
                 [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
                 normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)],
                 [contour gates (N × GATE_BITS bits on [0, 1])]
-    trailer: u16 length + zlib(JSON of provenance and extras)
+    trailer: u16 length + zlib(JSON of provenance, extras and the occluder volume, as in the JSON file)
 
 Version 1 is written when there is none of them (older readers read it); version 2 otherwise.
 
@@ -33,7 +33,8 @@ import zlib
 import numpy as np
 
 from ..errors import StrokeFileError
-from .fileio import FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, outline_cell_rows, stroke_set_from_dict
+from .fileio import (FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, occluder_to_dict, outline_cell_rows,
+                     stroke_set_from_dict)
 from .model import OUTLINE_CELLS, StrokeSet
 
 MAGIC = b"DDLB"
@@ -153,10 +154,11 @@ def encode(strokes: StrokeSet) -> bytes:
     flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2) | ((gates is not None) << 3)
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
-    meta = {"provenance": strokes.provenance, "extra": strokes.extra}
+    meta = {"provenance": strokes.provenance, "extra": strokes.extra,
+            **({"occluder": occluder_to_dict(strokes.occluder)} if strokes.occluder is not None else {})}
     trailer = zlib.compress(json.dumps(meta, separators=(",", ":"), allow_nan=False).encode(), 9) if any(meta.values()) else b""
     if len(trailer) > 65535:
-        raise StrokeFileError("provenance too large for the binary format")
+        raise StrokeFileError("provenance and occluder too large for the binary format's trailer; keep this file as JSON")
     return b"".join([
         _HEAD.pack(MAGIC, 2 if flags else 1, n, m),
         _FRAME.pack(*map(float, f.up), *map(float, f.center), float(f.radius), float(cam.fov_deg), float(cam.distance),
@@ -266,6 +268,7 @@ def _decode(data: bytes) -> StrokeSet:
                               {"outline_cells": outline_cell_rows(cells[i])})}
                           for i in range(m)],
         "provenance": meta.get("provenance", {}),
+        **({"occluder": meta["occluder"]} if "occluder" in meta else {}),
     }
     strokes = stroke_set_from_dict(doc)
     if not all(isinstance(v, dict) for v in extra.values()):

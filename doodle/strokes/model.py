@@ -122,6 +122,30 @@ class SuperquadricSet:
 
 
 @dataclass
+class Occluder:
+    """A coarse voxel volume that hides what lies behind it and draws nothing: the object's visual hull, for
+    hidden-line removal where the superquadrics do not reach.
+
+    Voxel ``(i, j, k)`` has centre ``origin + (i, j, k) · voxel @ axes``; ``axes`` ``(3, 3)`` are the grid's
+    unit axes in world coordinates, one per row; ``occupied`` ``bool (X, Y, Z)``.
+    """
+
+    origin: np.ndarray
+    voxel: float
+    axes: np.ndarray
+    occupied: np.ndarray
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        """Whether world points ``(..., 3)`` fall in an occupied voxel (the nearest voxel's centre decides)."""
+        ijk = np.rint(((points - self.origin) @ self.axes.T) / self.voxel).astype(np.int64)
+        shape = np.array(self.occupied.shape)
+        ok = np.all((ijk >= 0) & (ijk < shape), axis=-1)
+        out = np.zeros(ok.shape, bool)
+        out[ok] = self.occupied[tuple(ijk[ok].T)]
+        return out
+
+
+@dataclass
 class StrokeSet:
     """Everything a ``.doodle`` file holds."""
 
@@ -131,6 +155,8 @@ class StrokeSet:
     provenance: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
     """Unknown top-level keys of the file, kept so a round trip loses nothing."""
+    occluder: Occluder | None = None
+    """Optional: a volume that hides curves and outlines behind it (see :class:`Occluder`)."""
 
     @property
     def is_empty(self) -> bool:
