@@ -268,7 +268,7 @@ def styles(preview: Path | None, strokes_path: Path | None, extra: tuple[str, ..
     for name in builtin_names():
         click.echo(f"{name:10s} {load_style(name).description}")
     if preview:
-        from .styles.preview import preview_sheet
+        from .exporters.style_preview import preview_sheet
         from .strokes import read_strokes
 
         s = read_strokes(strokes_path) if strokes_path else None

@@ -13,7 +13,7 @@ from doodle.errors import DoodleError
 from doodle.exporters import DrawOptions, draw, to_svg
 from doodle.strokes import write_strokes
 from doodle.styles import builtin_names, load_style, style_from_dict
-from doodle.styles.preview import sample_strokes
+from doodle.exporters.style_preview import sample_strokes
 
 REQUIRED = {"ink", "pen", "pencil", "charcoal", "marker", "sketchy", "blueprint"}
 

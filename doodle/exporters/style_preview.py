@@ -10,9 +10,11 @@ from PIL import Image
 
 from ..atomic import atomic_path
 from ..cameras import orbit_cameras
-from ..exporters import DrawOptions, contact_sheet, draw, svg_to_png, to_svg
 from ..strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
-from .style import load_style
+from ..styles import builtin_names, load_style
+from .drawing import DrawOptions, draw
+from .raster import contact_sheet, svg_to_png
+from .svg import to_svg
 
 
 def sample_strokes() -> StrokeSet:
@@ -38,8 +40,6 @@ def sample_strokes() -> StrokeSet:
 def preview_sheet(out: str | Path, strokes: StrokeSet | None = None, names: list[str] | None = None,
                   size: int = 320) -> Path:
     """Draw ``strokes`` (default :func:`sample_strokes`) in every style into one labelled sheet."""
-    from . import builtin_names
-
     strokes = strokes or sample_strokes()
     names = names or builtin_names()
     cam = orbit_cameras(strokes.frame, 8, size, size)[1]
