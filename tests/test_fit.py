@@ -48,6 +48,30 @@ class TestInitialisation:
         assert np.linalg.norm(interior - scene.frame.center, axis=1).max() <= 1.15 * scene.frame.radius + 1e-9
 
 
+    def test_hull_occluder_is_the_object_a_voxel_in(self, chair_dir):
+        """The occluder a fit stores: its voxels lie in the chair (shrunk, the hull does not bulge out of it),
+        and it fills the seat's and the back's bulk, so what is behind them is hidden."""
+        from doodle.fit.volume import OCCLUDER_VOXELS, hull_occluder
+
+        scene = load_scene(chair_dir)
+        occ = hull_occluder(scene)
+        assert max(occ.occupied.shape) <= OCCLUDER_VOXELS + 2 and np.allclose(occ.axes @ occ.axes.T, np.eye(3))
+        idx = np.argwhere(occ.occupied)
+        centres = occ.origin + (idx * occ.voxel) @ occ.axes
+        prims = load_ground_truth(chair_dir)["primitives"]
+        inside = np.zeros(len(centres), bool)
+        for prim in prims:
+            inside |= prim.contains(centres, margin=1.0 * occ.voxel)
+        assert inside.mean() > 0.9, inside.mean()
+        # the other way round: points a voxel inside the seat and the back are inside the occluder (the legs,
+        # under 3 voxels across, are shrunk away: they hide little)
+        rng = np.random.default_rng(0)
+        pts = scene.frame.center + rng.uniform(-1, 1, (50000, 3)) * scene.frame.radius
+        for prim in sorted(prims, key=lambda q: -np.prod(q.half))[:2]:
+            deep = prim.contains(pts, margin=-1.0 * occ.voxel)
+            assert deep.sum() > 40 and occ.inside(pts[deep]).mean() > 0.85
+
+
 class TestValidation:
     @pytest.mark.parametrize("kw,msg", [(dict(curves=-1), "--curves"), (dict(curves=0, superquadrics=0), "nothing to fit"),
                                         (dict(size=4), "--size"), (dict(views_per_step=0), "--views-per-step"),
@@ -96,6 +120,7 @@ class TestShortFits:
         res = fit(load_scene(chair_dir), FitConfig(sq_iterations=40, **QUICK), progress=False, log=logs.append)
         s = res.strokes
         assert not s.superquadrics.drawn.any() and len(s.curves) >= 12
+        assert s.occluder is not None and s.occluder.occupied.any()  # the hull hides what superquadrics no longer do
         assert s.curves.normals is not None and s.curves.normals.shape == (len(s.curves), 2, 2, 3)
         gt = load_ground_truth(chair_dir)["feature_edges"]
         p, r = edge_scores(s.curves.control_points, gt, 0.04 * load_scene(chair_dir).frame.radius)
