@@ -278,6 +278,17 @@ class TestCli:
         assert r.exit_code == 0, r.output
         assert "line precision" in r.output and json.loads((tmp_path / "m.json").read_text())["views"] == 4
 
+    def test_contours_and_occluder_can_be_left_out(self, snowman_dir, tmp_path):
+        small = ["--superquadrics", "0", "--size", "64", "--evidence-size", "128", "--evidence-voxels", "64"]
+        found = {}
+        for flags in ([], ["--no-contours", "--no-occluder"]):
+            out = tmp_path / f"s{len(flags)}.doodle"
+            r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *small, *flags])
+            assert r.exit_code == 0, r.output
+            s = read_strokes(out)
+            found[len(flags)] = (s.occluder is not None, bool((s.curves.gates > 0).any()))
+        assert found == {0: (True, True), 2: (False, False)}
+
     def test_fit_bad_scene(self, tmp_path):
         r = CliRunner().invoke(cli, ["fit", str(tmp_path / "nope"), "-o", str(tmp_path / "x.doodle")])
         assert r.exit_code == 2 and r.output.startswith("Error:") and r.output.strip().count("\n") == 0
