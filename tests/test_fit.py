@@ -60,11 +60,10 @@ class TestInitialisation:
         centres = occ.origin + (idx * occ.voxel) @ occ.axes
         prims = load_ground_truth(chair_dir)["primitives"]
         inside = np.zeros(len(centres), bool)
-        for prim in prims:
-            inside |= prim.contains(centres, margin=1.0 * occ.voxel)
+        for prim in prims:  # the hull of a few views bulges a little into the concavities (under the seat)
+            inside |= prim.contains(centres, margin=0.05 * scene.frame.radius)
         assert inside.mean() > 0.9, inside.mean()
-        # the other way round: points a voxel inside the seat and the back are inside the occluder (the legs,
-        # under 3 voxels across, are shrunk away: they hide little)
+        # the other way round: points a voxel inside the seat and the back are inside the occluder
         rng = np.random.default_rng(0)
         pts = scene.frame.center + rng.uniform(-1, 1, (50000, 3)) * scene.frame.radius
         for prim in sorted(prims, key=lambda q: -np.prod(q.half))[:2]:

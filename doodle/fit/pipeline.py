@@ -346,9 +346,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     work = working_scene(scene, cfg.size)
     occluder = None
     if cfg.occluder and work.masks is not None:
-        from .volume import hull_occluder
+        from .volume import hull_occluder, occluder_voxels
 
-        occluder = hull_occluder(work)
+        occluder = hull_occluder(work, occluder_voxels(cfg.size))
     rng = np.random.default_rng(cfg.seed)
     gen = torch.Generator(device=device)
     gen.manual_seed(cfg.seed)
