@@ -105,3 +105,13 @@ def spread_indices(n: int, k: int) -> np.ndarray:
     ([0, 3, 6, 9], [0, 1, 2])
     """
     return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(int))
+
+
+def nearest_voxels(padded: np.ndarray, coords: np.ndarray) -> np.ndarray:
+    """The values ``(...)`` of a voxel grid at the voxels nearest to ``coords (..., 3)``, given in the grid's
+    voxel coordinates (voxel centres at integers). ``padded`` is the grid with one empty voxel on every side
+    (``np.pad(grid, 1)``, made once by the caller): every coordinate outside the grid lands there."""
+    ijk = np.rint(coords).astype(np.intp) + 1
+    for axis in range(3):
+        np.clip(ijk[..., axis], 0, padded.shape[axis] - 1, out=ijk[..., axis])
+    return padded[ijk[..., 0], ijk[..., 1], ijk[..., 2]]

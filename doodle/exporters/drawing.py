@@ -179,6 +179,17 @@ def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptio
     return out
 
 
+def _faces_at(normals: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Each point's two face normals ``(P, 2, 3)``, interpolated linearly between its curve's start and end
+    normals ``(P, 2, 2, 3)`` (start/end × face) at its parameter ``t (P,)``."""
+    return (1.0 - t)[:, None, None] * normals[:, 0] + t[:, None, None] * normals[:, 1]
+
+
+def _to_eye(points: np.ndarray, eyes: np.ndarray, directions: np.ndarray, orthographic: np.ndarray) -> np.ndarray:
+    """From each point ``(P, 3)`` towards its view's camera (against the viewing direction when orthographic)."""
+    return np.where(orthographic[:, None], -directions, eyes - points)
+
+
 def back_facing(points: np.ndarray, t: np.ndarray, normals: np.ndarray, eyes: np.ndarray,
                 directions: np.ndarray, orthographic: np.ndarray, grazing: float = 0.3) -> np.ndarray:
     """Whether both faces along a curve turn away from the camera at curve points ``(P, 3)``.
@@ -192,8 +203,8 @@ def back_facing(points: np.ndarray, t: np.ndarray, normals: np.ndarray, eyes: np
     Returns:
         ``(P,)`` bool. Zero normals never hide.
     """
-    n = (1.0 - t)[:, None, None] * normals[:, 0] + t[:, None, None] * normals[:, 1]  # (P, 2, 3)
-    to_eye = np.where(orthographic[:, None], -directions, eyes - points)
+    n = _faces_at(normals, t)
+    to_eye = _to_eye(points, eyes, directions, orthographic)
     to_eye /= np.maximum(np.linalg.norm(to_eye, axis=1, keepdims=True), 1e-12)
     length = np.linalg.norm(n, axis=2)
     cos = np.einsum("pfk,pk->pf", n, to_eye) / np.maximum(length, 1e-12)
@@ -213,8 +224,8 @@ def off_contour(points: np.ndarray, t: np.ndarray, normals: np.ndarray, gates: n
     Returns:
         ``(P,)`` bool.
     """
-    n = (1.0 - t)[:, None] * normals[:, 0, 0] + t[:, None] * normals[:, 1, 0]
-    to_eye = np.where(orthographic[:, None], -directions, eyes - points)
+    n = _faces_at(normals, t)[:, 0]
+    to_eye = _to_eye(points, eyes, directions, orthographic)
     cos = np.einsum("pk,pk->p", n, to_eye) / np.maximum(np.linalg.norm(n, axis=1) * np.linalg.norm(to_eye, axis=1), 1e-12)
     return (gates > 0) & (np.abs(cos) > gates)
 
@@ -231,7 +242,7 @@ def occlusion_probes(points: np.ndarray, t: np.ndarray, normals: np.ndarray | No
     """
     if normals is None:
         return points
-    n = ((1.0 - t)[:, None, None] * normals[:, 0] + t[:, None, None] * normals[:, 1]).sum(axis=1)
+    n = _faces_at(normals, t).sum(axis=1)
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return points + np.where(length > 1e-6, margin * n / np.maximum(length, 1e-12), 0.0)
 

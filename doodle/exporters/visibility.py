@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..arrays import nearest_voxels
 from ..cameras import Camera
 from ..strokes.model import Occluder, SuperquadricSet
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
@@ -115,8 +116,7 @@ def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder, chun
     if P == 0 or not volume.occupied.any():
         return out
     shape = np.array(volume.occupied.shape, float)
-    a = ((origins - volume.origin) @ volume.axes.T) / volume.voxel  # grid coordinates: voxel centres at integers
-    b = ((ends - volume.origin) @ volume.axes.T) / volume.voxel
+    a, b = volume.coordinates(origins), volume.coordinates(ends)  # voxel centres at integers
     t_in, t_out = _slab(a - (shape - 1) / 2, b - a, (shape + 1) / 2)  # the segment is t ∈ [0, 1]
     t_in, t_out = np.clip(t_in, 0, 1), np.clip(t_out, 0, 1)
     length = np.linalg.norm(b - a, axis=1)
@@ -127,10 +127,7 @@ def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder, chun
         n = int(np.ceil(((t_out[idx] - t_in[idx]) * length[idx]).max() * 2)) + 1
         s = np.linspace(0, 1, n)
         t = t_in[idx, None] + (t_out[idx] - t_in[idx])[:, None] * s  # (I, n)
-        q = np.rint(a[idx, None, :] + t[..., None] * (b - a)[idx, None, :]).astype(np.int64) + 1
-        for axis in range(3):  # outside the grid lands in the empty padding
-            np.clip(q[..., axis], 0, padded.shape[axis] - 1, out=q[..., axis])
-        out[idx] = padded[q[..., 0], q[..., 1], q[..., 2]].any(axis=1)
+        out[idx] = nearest_voxels(padded, a[idx, None, :] + t[..., None] * (b - a)[idx, None, :]).any(axis=1)
     return out
 
 

@@ -461,6 +461,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         return save
 
     judge_views = spread_indices(len(work), OUTLINE_VIEWS)  # where superquadric outlines are judged
+    judge_of = np.full(len(work) + 1, -1)  # a view's place among them, -1 if none (and for source -1)
+    judge_of[judge_views] = np.arange(len(judge_views))
 
     def choose_beside(sq: SuperquadricSet, polish: bool, log: Callable[[str], None] = lambda m: None):
         """The choice of curves with ``sq``'s drawn outlines counted as drawn."""
@@ -474,9 +476,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
         """The curves chosen beside ``sq``'s outlines, and per curve the judge view it was traced in (or -1)."""
         found = choose_beside(sq, polish=False)
-        traced = np.searchsorted(judge_views, found.source).clip(0, len(judge_views) - 1)
-        traced = np.where(judge_views[traced] == found.source, traced, -1)
-        return CurveSet(found.control_points, cfg.width_px, found.normals, found.contour), traced
+        return CurveSet(found.control_points, cfg.width_px, found.normals, found.contour), judge_of[found.source]
 
     def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
         """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""

@@ -26,6 +26,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
+from ..arrays import nearest_voxels
 from ..cameras import Camera
 from ..strokes.fitcurve import fit_cubics_many
 from .evidence import VoxelGrid
@@ -108,13 +109,8 @@ def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, 
     def coords(s: np.ndarray) -> np.ndarray:  # (K, S) distances → (K, S, 3) voxel coordinates
         return c0[:, None, :] + s[..., None].astype(np.float32) * cd[:, None, :]
 
-    # nearest voxels, in a copy of the hull padded with empty voxels that every index outside lands in
     coarse = np.arange(near, far, h)
-    padded = np.pad(occupied, 1)
-    ijk = np.rint(coords(np.broadcast_to(coarse, (len(xy), len(coarse))))).astype(np.int32) + 1
-    for a in range(3):
-        np.clip(ijk[..., a], 0, padded.shape[a] - 1, out=ijk[..., a])
-    inside = padded[ijk[..., 0], ijk[..., 1], ijk[..., 2]]
+    inside = nearest_voxels(np.pad(occupied, 1), coords(np.broadcast_to(coarse, (len(xy), len(coarse)))))
     hit = inside.any(axis=1)
     start = coarse[np.argmax(inside, axis=1)] - 2 * h
     s = start[:, None] + np.arange(0.0, max_chord + 4 * h, 0.5 * h)[None, :]  # (K, S)

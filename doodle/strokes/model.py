@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from ..arrays import nearest_voxels
+
 
 @dataclass
 class DefaultCamera:
@@ -135,14 +137,13 @@ class Occluder:
     axes: np.ndarray
     occupied: np.ndarray
 
+    def coordinates(self, points: np.ndarray) -> np.ndarray:
+        """Fractional voxel indices ``(..., 3)`` of world points ``(..., 3)`` (voxel centres at integers)."""
+        return ((points - self.origin) @ self.axes.T) / self.voxel
+
     def inside(self, points: np.ndarray) -> np.ndarray:
         """Whether world points ``(..., 3)`` fall in an occupied voxel (the nearest voxel's centre decides)."""
-        ijk = np.rint(((points - self.origin) @ self.axes.T) / self.voxel).astype(np.int64)
-        shape = np.array(self.occupied.shape)
-        ok = np.all((ijk >= 0) & (ijk < shape), axis=-1)
-        out = np.zeros(ok.shape, bool)
-        out[ok] = self.occupied[tuple(ijk[ok].T)]
-        return out
+        return nearest_voxels(np.pad(self.occupied, 1), self.coordinates(points))
 
 
 @dataclass
