@@ -24,6 +24,7 @@ step 4 (every 4th photo, ``benchmarks/bench_capture.py``).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Callable
 
@@ -31,6 +32,7 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
+from ..arrays import nearest_voxels
 from ..cameras import Camera
 from ..errors import SceneError
 from ..scenes import Scene
@@ -169,30 +171,26 @@ def _first_cut(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class VoxelHull:
-    """Voxels most views call object: ``occupied bool (X, Y, Z)``, voxel ``(0, 0, 0)`` spanning ``lo`` to
-    ``lo + voxel``."""
+    """Voxels most views call object: ``occupied bool (X, Y, Z)``; voxel ``(i, j, k)`` has centre
+    ``origin + (i, j, k) · voxel`` (the convention of :class:`~doodle.strokes.model.Occluder`, axes = world axes)."""
 
     occupied: np.ndarray
-    lo: np.ndarray
+    origin: np.ndarray
     voxel: float
 
-    @property
+    @cached_property
     def centres(self) -> np.ndarray:
         """World centres ``(K, 3)`` of the occupied voxels."""
-        return self.lo + (np.argwhere(self.occupied) + 0.5) * self.voxel
+        return self.origin + np.argwhere(self.occupied) * self.voxel
+
+    def coordinates(self, points: np.ndarray) -> np.ndarray:
+        """Fractional voxel indices ``(..., 3)`` of world points (voxel centres at integers)."""
+        return (points - self.origin) / self.voxel
 
     def grown(self, voxels: int) -> "VoxelHull":
         """The hull dilated by ``voxels`` (6-connected steps)."""
-        grid = np.pad(self.occupied, voxels)
-        grid = ndimage.binary_dilation(grid, iterations=voxels)
-        return VoxelHull(grid, self.lo - voxels * self.voxel, self.voxel)
-
-    def contains(self, points: np.ndarray) -> np.ndarray:
-        """Whether each world point ``(P, 3)`` lies in an occupied voxel."""
-        g = np.floor((points - self.lo) / self.voxel).astype(int)
-        ok = np.all((g >= 0) & (g < self.occupied.shape), axis=1)
-        ok[ok] = self.occupied[tuple(g[ok].T)]
-        return ok
+        grid = ndimage.binary_dilation(np.pad(self.occupied, voxels), iterations=voxels)
+        return VoxelHull(grid, self.origin - voxels * self.voxel, self.voxel)
 
 
 def _voxel_hull(cams: list[Camera], masks: list[np.ndarray], pts: np.ndarray, n: int = 96) -> VoxelHull:
@@ -212,7 +210,7 @@ def _voxel_hull(cams: list[Camera], masks: list[np.ndarray], pts: np.ndarray, n:
         seen[ok] += 1
         inside[np.flatnonzero(ok)[m[v, u]]] += 1
     keep = (seen >= 3) & (inside >= AGREE * seen)
-    return VoxelHull(keep.reshape([len(a) for a in axes]), lo, voxel)
+    return VoxelHull(keep.reshape([len(a) for a in axes]), lo + voxel / 2, voxel)
 
 
 def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], hull: VoxelHull,
@@ -240,16 +238,18 @@ def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], h
     colour = colours[k][v, u]
     best = np.full(len(u), np.inf)
     half = max(1, len(nbrs) // 2)
+    padded = np.pad(hull.occupied, 1)
     for s in np.linspace(-r, r, samples):
         x = origin + d * (depth + s)[:, None]
-        inside = hull.contains(x)
+        inside = nearest_voxels(padded, hull.coordinates(x))
         if not inside.any():
             continue
-        err = np.full((int(inside.sum()), len(nbrs)), 255.0, np.float32)
+        x_in, colour_in = x[inside], colour[inside]
+        err = np.full((len(x_in), len(nbrs)), 255.0, np.float32)
         for col, j in enumerate(nbrs):
-            uv, ok = _in_view(cams[j], x[inside])
+            uv, ok = _in_view(cams[j], x_in)
             seen = colours[j][uv[ok, 1].astype(int), uv[ok, 0].astype(int)]
-            err[ok, col] = np.abs(seen - colour[inside][ok]).mean(axis=1)
+            err[ok, col] = np.abs(seen - colour_in[ok]).mean(axis=1)
         err = np.sort(err, axis=1)[:, :half].mean(axis=1)
         best[inside] = np.minimum(best[inside], err)
     return best
@@ -262,9 +262,9 @@ def _colours(image: np.ndarray) -> np.ndarray:
 
 def _holes(error: np.ndarray, hull: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """Pixels that surely see past the object: in the hull's projection ``hull``, photo-inconsistent
-    (``error (H, W)``, :func:`photo_inconsistency` there and 0 elsewhere, above :data:`HOLE_CONTRAST` × its median at the object points' pixels ``uv (P, 2)``,
-    and above :data:`HOLE_MIN_ERROR`), more than 2 px from any projected object point, in blobs at least
-    2 px across and 30 px in area (at the cut's size)."""
+    (``error (H, W)``, :func:`photo_inconsistency` there and 0 elsewhere, above :data:`HOLE_CONTRAST` × its
+    median at the object points' pixels ``uv (P, 2)``, and above :data:`HOLE_MIN_ERROR`), more than 2 px from
+    any projected object point, in blobs at least 2 px across and 30 px in area (at the cut's size)."""
     H, W = hull.shape
     u, v = np.clip(uv.astype(int), 0, [W - 1, H - 1]).T
     at_points = error[v, u]
