@@ -76,9 +76,14 @@ def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path)
     ious = [_iou(a, b) for a, b in zip(found, truth)]
     assert np.mean(ious) > 0.85, ious
     assert len(list((tmp_path / "m").glob("*.png"))) == len(scene)
-    # a mask folder round-trips through --masks DIR
-    again = with_masks(scene, tmp_path / "m", log=lambda m: None).masks
-    assert all(_iou(a, b) > 0.99 for a, b in zip(again, found))
+    # a mask folder round-trips through --masks DIR, still known as automatic (its marker file) …
+    again = with_masks(scene, tmp_path / "m", log=lambda m: None)
+    assert all(_iou(a, b) > 0.99 for a, b in zip(again.masks, found))
+    assert again.masks_automatic and again.subset([0, 1]).masks_automatic
+    # … until the marker is deleted (masks fixed by hand are exact); given masks never are
+    (tmp_path / "m" / "doodle-masks.json").unlink()
+    assert not with_masks(scene, tmp_path / "m", log=lambda m: None).masks_automatic
+    assert not load_colmap(capture, masks_dir=capture / "true_masks").masks_automatic
     assert with_masks(scene, "none", log=lambda m: None).masks is None
 
 

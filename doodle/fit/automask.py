@@ -19,6 +19,10 @@
 On the composited Lego photos (SfM poses and points, textured backgrounds) the masks reach a mean IoU of
 0.96 with the true alpha, and the share of the true outline within 3 px of theirs goes from 0.71 to 0.83 with
 step 4 (every 4th photo, ``benchmarks/bench_capture.py``).
+
+A scene with such masks says so (``Scene.masks_automatic``), and so does a folder they were saved to (its
+:data:`MARKER` file): the fit then carves its hull allowing a few views to disagree
+(:data:`doodle.fit.evidence.HULL_DISAGREE`), since each of these boundaries may be a pixel or two off.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ CUT_SIZE = 384  # px, the long side at which GrabCut runs (its cost grows with t
 AGREE = 0.97  # share of the views seeing a voxel that must call it object (a tolerant carve grows fat)
 HOLE_CONTRAST = 3.0  # a hole's colour error must exceed this many times the typical error at object points
 HOLE_MIN_ERROR = 8.0  # ... and this, in 8-bit colour levels (mean over the channels)
+MARKER = "doodle-masks.json"  # in a folder of automatic masks: they are automatic (delete it once fixed by hand)
 HOLE_SEARCH = 2  # voxels: the depths searched reach this far out of the hull (a cut too tight carves it thin)
 
 
@@ -356,10 +361,18 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print) -> list[np.ndar
 
 
 def write_masks(scene: Scene, masks: list[np.ndarray], folder: Path) -> Path:
-    """Save masks as ``FOLDER/NAME.png`` (white = object), one per view, named after the view's image."""
+    """Save masks as ``FOLDER/NAME.png`` (white = object), one per view, named after the view's image, each
+    written atomically, and the :data:`MARKER` that says they are automatic."""
+    import json
+
+    from ..atomic import atomic_path, write_text
+
     folder.mkdir(parents=True, exist_ok=True)
     for cam, m in zip(scene.cameras, masks):
-        Image.fromarray(m.astype(np.uint8) * 255).save(folder / f"{cam.name}.png")
+        with atomic_path(folder / f"{cam.name}.png") as tmp:
+            Image.fromarray(m.astype(np.uint8) * 255).save(tmp, format="PNG")
+    write_text(folder / MARKER, json.dumps({"masks": "automatic", "made_by": "doodle fit --masks auto",
+                                            "note": "delete this file once the masks are fixed by hand"}, indent=1) + "\n")
     return folder
 
 
@@ -367,17 +380,20 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
                log: Callable[[str], None] = print) -> Scene:
     """The scene with the masks ``how`` asks for: ``"auto"`` keeps the scene's own masks (alpha, a masks
     folder) or makes them (:func:`auto_masks`) and saves them to ``auto_dir`` for inspection; ``"none"``
-    drops them; anything else is a folder of masks, one ``NAME.png`` per view."""
+    drops them; anything else is a folder of masks, one ``NAME.png`` per view (automatic if it holds the
+    :data:`MARKER` file)."""
     from dataclasses import replace
 
     from ..scenes.images import read_mask_folder
 
     if str(how) == "none":
-        return replace(scene, masks=None)
+        return replace(scene, masks=None, masks_automatic=False)
     if str(how) != "auto":
         masks = read_mask_folder(Path(how), [c.name for c in scene.cameras], [(c.width, c.height) for c in scene.cameras])
-        log(f"masks from {how}: object covers {100 * np.mean([m.mean() for m in masks]):.0f}% of the image on average")
-        return replace(scene, masks=masks)
+        automatic = (Path(how) / MARKER).is_file()
+        log(f"masks from {how}{' (automatic)' if automatic else ''}: object covers "
+            f"{100 * np.mean([m.mean() for m in masks]):.0f}% of the image on average")
+        return replace(scene, masks=masks, masks_automatic=automatic)
     if scene.masks is not None:
         return scene
     masks = auto_masks(scene, log)
@@ -387,4 +403,4 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
             log(f"automatic masks written to {auto_dir} (fix any and pass --masks {auto_dir})")
         except OSError as exc:
             log(f"warning: cannot write the automatic masks to {auto_dir} ({exc.strerror or exc})")
-    return replace(scene, masks=masks)
+    return replace(scene, masks=masks, masks_automatic=True)

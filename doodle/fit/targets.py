@@ -35,7 +35,7 @@ def working_scene(scene: Scene, size: int) -> Scene:
                 m = np.asarray(Image.fromarray(m.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
             out_masks.append(m)
     return Scene(out_cams, out_images, scene.frame, out_masks if scene.masks is not None else None, scene.points,
-                 scene.source, scene.image_paths)
+                 scene.source, scene.image_paths, scene.masks_automatic)
 
 
 def line_map(image: np.ndarray, mask: np.ndarray | None, sigma: float = 2.0) -> np.ndarray:

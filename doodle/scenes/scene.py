@@ -22,6 +22,8 @@ class Scene:
 
     Images are ``uint8 (H, W, 3)`` composited over white; masks are ``bool (H, W)`` (``True`` = object) or
     absent; points are SfM points ``(P, 3)`` or absent. All geometry is in the input's world coordinates.
+    ``masks_automatic``: the masks were made from the photos (:mod:`doodle.fit.automask`), so each boundary
+    may be a pixel or two off, differently in each view; given masks (alpha, a folder) are taken as exact.
     """
 
     cameras: list[Camera]
@@ -31,6 +33,7 @@ class Scene:
     points: np.ndarray | None = None
     source: str = ""
     image_paths: list[Path] = field(default_factory=list)
+    masks_automatic: bool = False
 
     def __len__(self) -> int:
         return len(self.cameras)
@@ -41,7 +44,7 @@ class Scene:
         return Scene(
             [self.cameras[i] for i in idx], [self.images[i] for i in idx], self.frame,
             [self.masks[i] for i in idx] if self.masks is not None else None, self.points, self.source,
-            [self.image_paths[i] for i in idx] if self.image_paths else [],
+            [self.image_paths[i] for i in idx] if self.image_paths else [], self.masks_automatic,
         )
 
 
