@@ -248,7 +248,7 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
 
 
 def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_seen_frac: float = 0.3,
-               levels: int = 3, sdf: list[np.ndarray] | None = None, disagree: float = 0.0
+               levels: int = 3, sdf: list[np.ndarray] | None = None, disagree: float | None = None
                ) -> tuple[VoxelGrid, np.ndarray]:
     """Visual hull on a grid fitted to the object: ``(grid, occupied bool (X, Y, Z))``.
 
@@ -256,11 +256,14 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
     (:func:`fit_axes`); the fine grid covers that box with
     ``max_voxels`` voxels along its longest side and is carved coarse to fine (``levels`` halvings).
     ``sdf``: the masks' signed distances (see :class:`ViewMaps`), when already computed. ``disagree``: the
-    share of the views seeing a voxel whose masks may call it background without carving it (see
-    :data:`HULL_DISAGREE`).
+    share of the views seeing a voxel whose masks may call it background without carving it; ``None``:
+    :data:`HULL_DISAGREE` for automatic masks (``scene.masks_automatic``), 0 for given ones (exact: a tolerant
+    hull would fill what few views see).
     """
     if scene.masks is None:
         raise ValueError("the scene has no masks")
+    if disagree is None:
+        disagree = HULL_DISAGREE if scene.masks_automatic else 0.0
     cams = scene.cameras
     if sdf is None:
         sdf = []
@@ -380,8 +383,7 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
         grow: … or at most this many outside it.
         margin_voxels: a voxel counts as visible when at most this far behind the hull's depth map.
         sigma_px: width of the line response.
-        disagree: see :func:`carve_hull`; ``None``: :data:`HULL_DISAGREE` for automatic masks
-            (``scene.masks_automatic``), 0 for given ones (exact: a tolerant hull would fill what few views see).
+        disagree: of the hull's carving (see :func:`carve_hull`).
 
     The per-view maps and the vote run in threads (numpy and scipy release the GIL in them): no worker
     processes, nothing to fork.
@@ -395,8 +397,6 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:
         maps = list(pool.map(lambda im: view_maps(im[0], im[1], sigma_px=sigma_px, thin=thin),
                              zip(scene.images, scene.masks)))
-        if disagree is None:
-            disagree = HULL_DISAGREE if scene.masks_automatic else 0.0
         grid, occupied = carve_hull(scene, max_voxels, sdf=[vm.sdf for vm in maps], disagree=disagree)
         cams = scene.cameras
         lines = [vm.lines for vm in maps]
