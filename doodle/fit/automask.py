@@ -46,8 +46,8 @@ CUT_SIZE = 384  # px, the long side at which GrabCut runs (its cost grows with t
 AGREE = 0.97  # share of the views seeing a voxel that must call it object (a tolerant carve grows fat)
 HOLE_CONTRAST = 3.0  # a hole's colour error must exceed this many times the typical error at object points
 HOLE_MIN_ERROR = 8.0  # ... and this, in 8-bit colour levels (mean over the channels)
-MARKER = "doodle-masks.json"  # in a folder of automatic masks: they are automatic (delete it once fixed by hand)
 HOLE_SEARCH = 2  # voxels: the depths searched reach this far out of the hull (a cut too tight carves it thin)
+MARKER = "doodle-masks.json"  # in a folder of automatic masks: they are automatic (delete it once fixed by hand)
 
 
 def _in_view(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
