@@ -41,9 +41,12 @@ from ..cameras import Camera
 from ..errors import SceneError
 from ..scenes import Scene
 from ..scenes.scene import dominant_plane
+from .evidence import HULL_DISAGREE
 
 CUT_SIZE = 384  # px, the long side at which GrabCut runs (its cost grows with the pixel count)
-AGREE = 0.97  # share of the views seeing a voxel that must call it object (a tolerant carve grows fat)
+# share of the views seeing a voxel that must call it object (a tolerant carve grows fat): the same tolerance
+# as the fit's hulls carved from these masks, one number for both
+AGREE = 1.0 - HULL_DISAGREE
 HOLE_CONTRAST = 3.0  # a hole's colour error must exceed this many times the typical error at object points
 HOLE_MIN_ERROR = 8.0  # ... and this, in 8-bit colour levels (mean over the channels)
 HOLE_SEARCH = 2  # voxels: the depths searched reach this far out of the hull (a cut too tight carves it thin)

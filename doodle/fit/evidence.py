@@ -219,7 +219,7 @@ carving it from a hull (:func:`carve_hull`: the evidence's, the occluder, the th
 are a pixel or two off, differently in each photo, and one mask a pixel too tight carves a strict hull there
 for every view: it comes out thinner than the object, the contour points lifted onto it fall inside the other
 views' outlines, and the outline's votes land beside the hull's surface. 3 % (none under 34 views) is what
-:mod:`.automask`'s own hull allows. Given masks keep the strict hull: on them a tolerant one fills what
+:mod:`.automask`'s own hull allows (its ``AGREE`` is ``1 - HULL_DISAGREE``). Given masks keep the strict hull: on them a tolerant one fills what
 only a few views see (Lego's held-out recall 0.809 → 0.774)."""
 
 
