@@ -271,3 +271,23 @@ def test_occluder_volumes_survive_both_file_encodings_and_bad_ones_are_refused()
         edit(bad["occluder"])
         with pytest.raises(StrokeFileError, match=message):
             loads(json.dumps(bad))
+
+
+def test_an_outline_reach_explains_an_outline_two_pixels_off(ball_rims):
+    """Automatic masks are a pixel or two off, differently in each photo: with an outline reach of ``r`` a
+    stroke explains the outline pixels within ``r + 0.5`` px of it, while other lines (and the 1-px reach) must
+    lie within its 3 × 3 neighbourhood. Here the view's outline is moved 3 px out (the mask grown), and the
+    view's own contour curves are judged against it."""
+    cams, masks, grid, occupied, rims = ball_rims
+    grown = [ndimage.distance_transform_edt(~m) <= 3.0 for m in masks]
+    lines = [g ^ ndimage.binary_erosion(g) for g in grown]
+    ev = Evidence(grid, np.zeros(occupied.shape, np.float32), occupied, np.zeros(occupied.shape, np.int16), cams,
+                  lines, depth_maps(grid, occupied, cams), 6 * grid.voxel)
+    mine = rims.view == 0
+    args = dict(gates=np.full(mine.sum(), 0.3), contour_normals=rims.normals[mine])
+    near, off_near, ink = stroke_coverage(rims.controls[mine], ev, [0], **args)
+    wide, off_wide, _ = stroke_coverage(rims.controls[mine], ev, [0], outlines={0: lines[0]}, outline_reach=3, **args)
+    outline = int(lines[0].sum())
+    assert len(np.unique(np.concatenate(near))) < 0.5 * outline
+    assert len(np.unique(np.concatenate(wide))) > 0.95 * outline
+    assert off_near.sum() > 0.3 * ink.sum() and off_wide.sum() < 0.02 * ink.sum()

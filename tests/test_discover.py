@@ -8,7 +8,7 @@ from scipy import ndimage
 
 from doodle.exporters import DrawOptions, draw
 from doodle.exporters.drawing import back_facing
-from doodle.fit.discover import choose_curves, find_candidates, select_strokes, snap_ends
+from doodle.fit.discover import choose_curves, complete_outline, find_candidates, select_strokes, snap_ends
 from doodle.fit.evidence import VoxelGrid, carve_hull, edge_evidence, fit_axes, object_lines, thin_parts
 from doodle.fit.facing import curve_normals
 from doodle.fit.ridges import RidgePoints, _bridge, link_ridges, split_at_corners
@@ -207,6 +207,22 @@ class TestChoice:
         covers = [np.arange(0, 40), np.arange(40, 100)]
         chosen, _ = select_strokes(covers, np.array([0.0, 200.0]), 10, 5)
         assert chosen == [0]
+
+    def test_the_outline_is_completed_by_strokes_for_it_alone(self):
+        """After the choice, only outline pixels count: a stroke along the inside lines gains nothing, one
+        along the outline is taken even though an inside stroke explains more pixels, pixels already drawn
+        count for nothing, off-line ink still costs, and a stroke mostly inside is no outline stroke."""
+        outline = np.arange(0, 100)
+        covers = [np.arange(100, 400),  # inside lines only
+                  np.arange(0, 60),  # the outline's first 60 pixels: chosen before
+                  np.arange(40, 90),  # 30 new outline pixels
+                  np.arange(90, 95),  # 5 new, but much ink off the lines
+                  np.r_[np.arange(95, 100), np.arange(400, 600)],  # 5 new outline pixels among many inside ones
+                  np.r_[np.arange(95, 100), np.arange(600, 607)]]  # 5 new outline pixels, a few inside ones
+        more, gains = complete_outline(covers, np.array([0, 0, 0, 100.0, 0, 0]), [1], outline, 700, 10, 3)
+        assert more == [2, 5] and gains == [30.0, 5.0]
+        more, _ = complete_outline(covers, np.zeros(6), [1], outline, 700, 1, 3)
+        assert more == [2]  # at most max_strokes
 
     def test_meeting_ends_snap_together(self):
         c = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]],

@@ -9,15 +9,19 @@ from typing import Literal, Union
 InitMethod = Literal["auto", "points", "hull", "bbox"]
 
 
-#: With ``curves="auto"``, discovery chooses at most this many.
+#: With ``curves="auto"``, discovery chooses at most this many by all the lines they draw...
 AUTO_MAX_CURVES = 128
+#: ...and, when those are not enough, up to this many more for the outline alone (see
+#: :func:`doodle.fit.discover.choose_curves`): an object with more lines than the sketch holds is still drawn whole.
+AUTO_OUTLINE_CURVES = 128
 
 
 @dataclass
 class FitConfig:
     curves: Union[int, Literal["auto"]] = "auto"
     """Cubic Bézier curves (view-independent strokes): ``"auto"`` lets stroke discovery choose how many (at
-    most ``AUTO_MAX_CURVES``); a number is an upper bound."""
+    most ``AUTO_MAX_CURVES``, and ``AUTO_OUTLINE_CURVES`` more for the outline when those fall short); a
+    number is an upper bound."""
     discover: bool = True
     """Find the curves from multi-view edge evidence (needs masks) and refine them; ``False``: fit curves
     started at random hull points with the distance-field objective alone (the earlier method)."""
@@ -77,6 +81,11 @@ class FitConfig:
     @property
     def max_curves(self) -> int:
         return AUTO_MAX_CURVES if self.curves == "auto" else int(self.curves)
+
+    @property
+    def outline_curves(self) -> int:
+        """Curves discovery may add for the outline alone once ``max_curves`` are chosen (none for a number)."""
+        return AUTO_OUTLINE_CURVES if self.curves == "auto" else 0
 
     @property
     def curve_iterations(self) -> int:

@@ -471,7 +471,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         # An outline counts as drawn within 1.5 working pixels (the evidence views are finer).
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio)), occluder) if sq.drawn.any() else None
-        return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish, log=log)
+        return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish,
+                             outline_curves=cfg.outline_curves, log=log)
 
     def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
         """The curves chosen beside ``sq``'s outlines, and per curve the judge view it was traced in (or -1)."""
