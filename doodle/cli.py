@@ -300,7 +300,8 @@ def _log(msg: str) -> None:
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
 @click.option("--curves", default="auto", show_default=True, callback=_count_or_auto(4096),
-              help="Bézier curves: 'auto' (discovery chooses how many) or a maximum.")
+              help="Bézier curves: 'auto' (discovery chooses how many: up to 128, and up to 128 more "
+                   "for the outline when those fall short) or a maximum.")
 @click.option("--superquadrics", default="auto", show_default=True, callback=_count_or_auto(64),
               help="Number of superquadrics, or 'auto' (chosen from the data).")
 @click.option("--discover/--no-discover", default=True, show_default=True,
