@@ -7,7 +7,8 @@
    explain across the views, minus the ink they put where no line is; the count is automatic — selection
    stops when the best remaining stroke would newly explain less than ``min_gain`` (0.1 %) of all line
    pixels — and ``max_curves`` only bounds it. A stroke that runs along one already chosen explains nothing new, so
-   duplicates are never taken.
+   duplicates are never taken. When ``max_curves`` cut the choice short, up to ``outline_curves`` more are
+   chosen for the masks' outline alone (:func:`complete_outline`).
 4. **Joins**: stroke ends that meet (within two voxels) are snapped to one point, so edges meet at corners.
 """
 
@@ -250,7 +251,9 @@ def complete_outline(covers: list[np.ndarray], off: np.ndarray, chosen: list[int
                      weight: np.ndarray | None = None) -> tuple[list[int], list[float]]:
     """Strokes chosen after ``chosen`` for the outline alone: :func:`select_strokes` with only the ``outline``
     pixels (global ids, of ``pixels`` in all) counting in the gain, those ``chosen`` (and ``taken``) explain
-    counting as drawn, off-line ink costing as before. Returns the new indices and their gains."""
+    counting as drawn, off-line ink costing as before. The novelty test of :func:`select_strokes` then asks
+    that at least a quarter of a stroke's pixels be new outline: one mostly along the inside lines is no
+    outline stroke, however many outline pixels it also meets. Returns the new indices and their gains."""
     drawn = [covers[k] for k in chosen] + ([taken] if taken is not None else [])
     on_outline = np.zeros(pixels)
     on_outline[outline] = 1.0
@@ -517,7 +520,8 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             off-line ink counting against it as before): the outline is what makes an object recognisable,
             and the strokes that complete it are the exact ones (contour curves, edges along the silhouette),
             so the sketch is drawn whole without busier insides. On the Lego photos (automatic masks) the
-            128 + 128 raised the true outline drawn from 0.750 to 0.822 at line precision 0.867 → 0.870.
+            128 + 128 raised the true outline drawn from 0.750 to 0.822 at line precision 0.867 → 0.870
+            (discovery alone, all 94 photos; the whole fit: 0.815 / 0.879, and 0.815 on 12 photos held out).
     """
     t = time.perf_counter()
     ev = cand.evidence
