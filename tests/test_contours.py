@@ -273,7 +273,7 @@ def test_occluder_volumes_survive_both_file_encodings_and_bad_ones_are_refused()
             loads(json.dumps(bad))
 
 
-def test_an_outline_reach_explains_an_outline_two_pixels_off(ball_rims):
+def test_an_outline_reach_explains_an_outline_a_few_pixels_off(ball_rims):
     """Automatic masks are a pixel or two off, differently in each photo: with an outline reach of ``r`` a
     stroke explains the outline pixels within ``r + 0.5`` px of it, while other lines (and the 1-px reach) must
     lie within its 3 × 3 neighbourhood. Here the view's outline is moved 3 px out (the mask grown), and the

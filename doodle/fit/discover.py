@@ -157,21 +157,17 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
             seen[inside] = pz[j][inside] <= ev.depth[v][pw[j][inside], pu[j][inside]] + ev.margin
             visible[g] = seen
         idx = idx[visible]
-        ny = w[idx, None] + _NEIGHBOURS[None, :, 0]
-        nx = u[idx, None] + _NEIGHBOURS[None, :, 1]
-        on = lines[ny, nx]  # (samples, 9)
-        hit = on.any(axis=1)
-        r, c = np.nonzero(on)
-        hit_owner.append(owner[idx[r]])
-        hit_pix.append((ny[r, c] * W + nx[r, c]).astype(np.int64) + offset)
-        if wide is not None:
-            wy = np.clip(w[idx, None] + wide[None, :, 0], 0, H - 1)
-            wx = np.clip(u[idx, None] + wide[None, :, 1], 0, W - 1)
-            on = outlines[v][wy, wx]  # (samples, K)
+        hit = np.zeros(len(idx), bool)
+        # the lines within the 3 × 3 neighbourhood (always inside: samples keep a pixel off the border), and
+        # with a wider outline reach the outline pixels within it
+        for img, near in [(lines, _NEIGHBOURS)] + ([(outlines[v], wide)] if wide is not None else []):
+            ny = np.clip(w[idx, None] + near[None, :, 0], 0, H - 1)
+            nx = np.clip(u[idx, None] + near[None, :, 1], 0, W - 1)
+            on = img[ny, nx]  # (samples, neighbours)
             hit |= on.any(axis=1)
             r, c = np.nonzero(on)
             hit_owner.append(owner[idx[r]])
-            hit_pix.append((wy[r, c] * W + wx[r, c]).astype(np.int64) + offset)
+            hit_pix.append((ny[r, c] * W + nx[r, c]).astype(np.int64) + offset)
         np.add.at(ink, owner[idx], 1.0)
         np.add.at(off, owner[idx[~hit]], 1.0)
         offset += lines.size
