@@ -76,7 +76,7 @@ def cli() -> None:
               help="Write a phone-capture-like COLMAP project instead: JPEGs over a textured floor and wall, "
                    "landscape and portrait (some EXIF-rotated), lens distortion, no masks (--train photos).")
 def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool) -> None:
-    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug) as a NeRF-synthetic folder.
+    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel) as a NeRF-synthetic folder.
 
     The folder holds RGBA renders from the upper hemisphere, transforms_{train,test}.json and
     ground_truth.json (primitives and visible feature edges). With --capture, a COLMAP project
@@ -428,7 +428,7 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
 @cli.command()
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("doodle-demo"),
               show_default=True, help="Folder for everything the demo makes.")
-@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug"]), default="snowman", show_default=True)
+@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel"]), default="snowman", show_default=True)
 def demo(out_dir: Path, scene: str) -> None:
     """Run the whole pipeline on a built-in procedural scene: render, fit, export, animate, evaluate."""
     from .demo import run_demo

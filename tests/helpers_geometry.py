@@ -4,6 +4,7 @@ axes of a sample scene's thin parts."""
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from doodle.strokes.bezier import bezier_points
 
@@ -99,3 +100,30 @@ def inside_superquadrics(sq, points: np.ndarray) -> np.ndarray:
     from doodle.strokes.superquadric import union_log_inside_outside
 
     return union_log_inside_outside(points, sq.scale, sq.shape, sq.rotation, sq.translation) < 0
+
+
+def ink_on_print(strokes, primitives, cameras, tau: float = 2.0) -> float:
+    """Share of a sketch's ink, over ``cameras``, that lies on the primitives' print and on no structure: within
+    ``tau`` px of a boundary of the print's ink and farther than ``tau`` from the silhouette and from every
+    boundary between primitives or faces (what a viewer sees as drawn texture)."""
+    from scipy import ndimage
+
+    from doodle.evaluate import _inked
+    from doodle.exporters import DrawOptions, draw_many, to_svg
+    from doodle.samples.raycast import cast, printed
+
+    on, total = 0, 0
+    for cam, drawing in zip(cameras, draw_many(strokes, cameras, DrawOptions(tolerance=0.25))):
+        ink = _inked(to_svg(drawing, 0.25), (cam.width, cam.height))
+        o, d = cam.rays()
+        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+        t, n, idx = cast(primitives, o, d)
+        dark = printed(primitives, o + np.where(np.isfinite(t), t, 0)[:, None] * d, idx) < 1
+        face = ((idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])).reshape(cam.height, cam.width)
+        dark = dark.reshape(face.shape)
+        edges = lambda a: (ndimage.maximum_filter(a, 3) != a) | (ndimage.minimum_filter(a, 3) != a)  # noqa: E731
+        structure = ndimage.distance_transform_edt(~edges(face)) <= tau
+        paint = ndimage.distance_transform_edt(~edges(dark.astype(int))) <= tau
+        on += int((ink & paint & ~structure).sum())
+        total += int(ink.sum())
+    return on / max(total, 1)

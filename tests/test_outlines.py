@@ -227,3 +227,28 @@ def test_facing_that_hides_lines_the_views_see_is_dropped_and_right_facing_is_ke
     assert not wrongly_hidden(both, SuperquadricSet(), FRAME, CAMS, seen_all).any()
     # no normals, nothing to judge
     assert not wrongly_hidden(replace(cube, normals=None), SuperquadricSet(), FRAME, CAMS, seen_all).any()
+
+
+def test_an_outline_that_halves_the_curves_beside_it_may_cost_a_little_f(monkeypatch):
+    """The snowman's head: its ball's outline with 17 curves beside it scores 0.956, the 43 curves (contour
+    curves of many views, which a view between them draws as dashes) 0.962 without it. Half the curves for
+    0.006 of F: the outline is drawn. For 0.02 it is not, nor for 0.006 with more than half the curves."""
+    import doodle.fit.outlines as outlines
+
+    ball = _one([0.6, 0.6, 0.6], [1.0, 1.0])
+    masks, lines = _views(ball)
+    many, few = CurveSet(np.zeros((43, 4, 3))), CurveSet(np.zeros((17, 4, 3)))
+    monkeypatch.setattr(outlines, "outline_precision", lambda sq, *a, **k: np.ones(len(sq)))
+
+    def judged(with_ball: float, beside_ball: CurveSet) -> list[bool]:
+        def score(strokes, *a, **k):  # the ball beside the 43 curves doubles their outline: no better
+            alone = not strokes.superquadrics.drawn.any() or len(strokes.curves) == len(many)
+            f = 0.962 if alone else with_ball
+            return f, f, f
+        monkeypatch.setattr(outlines, "sketch_score", score)
+        beside = lambda sq: (beside_ball if sq.drawn.any() else many, None)  # noqa: E731
+        return keep_outlines(ball, many, FRAME, CAMS, lines, masks, curves_beside=beside).drawn.tolist()
+
+    assert judged(0.956, few) == [True]
+    assert judged(0.942, few) == [False]
+    assert judged(0.956, CurveSet(np.zeros((30, 4, 3)))) == [False]

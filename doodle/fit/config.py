@@ -33,6 +33,9 @@ class FitConfig:
     """Discovery also offers each training view's outline as contour curves (``doodle.fit.rims``): curves
     drawn only from the views that graze them, which outline smooth parts no fixed curve or superquadric
     draws."""
+    texture: bool = True
+    """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
+    printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.texture``)."""
     occluder: bool = True
     """Store the visual hull, on a coarse grid, in the stroke file as an occluder: the exporters hide the
     curves and outlines behind it (with masks only). Occluder-only superquadrics are then not kept."""

@@ -8,7 +8,8 @@
    stops when the best remaining stroke would newly explain less than ``min_gain`` (0.1 %) of all line
    pixels — and ``max_curves`` only bounds it. A stroke that runs along one already chosen explains nothing new, so
    duplicates are never taken. When ``max_curves`` cut the choice short, up to ``outline_curves`` more are
-   chosen for the masks' outline alone (:func:`complete_outline`).
+   chosen for the masks' outline alone (:func:`complete_outline`). A candidate lying on a smooth face of the
+   hull (:mod:`.texture`: print, not structure) counts only the outline pixels it explains.
 4. **Joins**: stroke ends that meet (within two voxels) are snapped to one point, so edges meet at corners.
 """
 
@@ -32,6 +33,7 @@ from .evidence import Evidence, _project, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, find_rims
+from .texture import on_smooth_faces
 
 
 @dataclass
@@ -181,7 +183,8 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
 
 def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, min_gain: float,
                    min_novelty: float = 0.5, off_weight: float = 0.5, taken: np.ndarray | None = None,
-                   weight: np.ndarray | None = None, pixel_weight: np.ndarray | None = None
+                   weight: np.ndarray | None = None, pixel_weight: np.ndarray | None = None,
+                   smooth: np.ndarray | None = None, outline: np.ndarray | None = None
                    ) -> tuple[list[int], list[float]]:
     """Greedy set cover: the stroke that newly explains the most line pixels (minus ``off_weight`` × its
     off-line ink) first.
@@ -195,6 +198,11 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     against a stroke, the mug's rim was a duplicate and went undrawn once its top was a drawn outline),
     while a stroke mostly along an outline would be a tick beside it. Lazy evaluation (gains only shrink as
     strokes are chosen) keeps it fast.
+
+    ``smooth`` ``(N,)`` bool marks strokes on a smooth face of the object (:mod:`.texture`): of the pixels
+    such a stroke explains only the ``outline`` ones (global ids) count, and the novelty test then asks that
+    its new outline, as the gain weighs it, be at least a quarter of its pixels. Where a smooth face turns
+    away from a view, a line on it is the outline; anywhere else it is paint.
 
     Returns:
         The chosen indices in order, and each one's gain in pixels.
@@ -212,9 +220,15 @@ def select_strokes(covers: list[np.ndarray], off: np.ndarray, max_strokes: int, 
     if pixel_weight is not None:
         pw = np.ones(size)
         pw[: min(size, len(pixel_weight))] = pixel_weight[:size]
+    ow = None  # what a pixel counts for a stroke on a smooth face: only the outline's
+    if smooth is not None and smooth.any():
+        ow = np.zeros(size)
+        ids = outline[outline < size] if outline is not None else np.zeros(0, np.int64)
+        ow[ids] = 1.0 if pw is None else pw[ids]
 
     def gain(k: int) -> tuple[float, float]:
-        new = float((~taken[covers[k]]).sum()) if pw is None else float(pw[covers[k]][~taken[covers[k]]].sum())
+        w = ow if ow is not None and smooth[k] else pw
+        new = float((~taken[covers[k]]).sum()) if w is None else float(w[covers[k]][~taken[covers[k]]].sum())
         n = max(len(covers[k]), 1)
         novelty = min(float((~by_curves[covers[k]]).sum()) / n, 2 * new / n)  # see the docstring
         g = new - off_weight * off[k]
@@ -413,6 +427,9 @@ class Candidates:
     """``(N, 2, 3)`` a contour candidate's surface normals at start and end (zeros for feature curves)."""
     source: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     """``(N,)`` the evidence view a contour candidate was traced in (``-1`` for feature curves)."""
+    smooth: np.ndarray | None = None
+    """``(N,)`` bool: the feature candidates that lie on a smooth face of the hull, print unless they draw
+    the outline (:mod:`.texture`); ``None``: not judged."""
 
     def pixel_ids(self, view_pixels: list[np.ndarray], reach: int = 1) -> np.ndarray:
         """Global ids of the line pixels within ``reach`` pixels (a (2 reach + 1)² square) of given pixels
@@ -434,7 +451,8 @@ class Candidates:
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
                     tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48, contours: bool = True,
-                    outline_reach: int | None = None, log: Callable[[str], None] = lambda m: None) -> Candidates:
+                    outline_reach: int | None = None, texture: bool = True,
+                    log: Callable[[str], None] = lambda m: None) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
     Args:
@@ -448,6 +466,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
         contours: also offer every view's contour curves (:mod:`.rims`), the outline of smooth parts.
         outline_reach: how near (px) a stroke must pass an outline pixel to explain it (lines inside: 1 px);
             ``None``: :data:`AUTOMATIC_OUTLINE_REACH` for automatic masks (``scene.masks_automatic``), else 1.
+        texture: mark the feature candidates that lie on smooth faces of the hull (``Candidates.smooth``),
+            which the choice then takes only for the outline they draw: printed lines are not structure.
     """
     if outline_reach is None:
         outline_reach = AUTOMATIC_OUTLINE_REACH if scene.masks_automatic else 1
@@ -467,6 +487,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     pieces = fit_cubics_many(polys, tolerance_voxels * h) if polys else []
     controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
     gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)
+    smooth = on_smooth_faces(controls, ev.grid, ev.occupied) if texture else None
     seconds["curves"] = time.perf_counter() - t
     n_rims = 0
     if contours:
@@ -481,6 +502,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
         gates = np.r_[gates, np.repeat(offered, len(rims.controls))]
         normals = np.concatenate([normals, np.tile(rims.normals, (k, 1, 1))])
         source = np.r_[source, np.tile(rims.view, k)]
+        if smooth is not None:  # contour curves are the outline's own traces
+            smooth = np.r_[smooth, np.zeros(n_rims, bool)]
         seconds["contours"] = time.perf_counter() - t
     t = time.perf_counter()
     views = list(spread_indices(len(ev.cameras), max_views))
@@ -493,11 +516,12 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     rim = np.concatenate([np.flatnonzero(outlines[v]) + o for v, o in zip(views, offsets)])
     seconds["coverage"] = time.perf_counter() - t
     log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls) - n_rims} candidate "
-        f"cubics" + (f" + {n_rims // k} contour cubics (each offered {k} ways)" if contours else "") +
+        f"cubics" + (f" ({int(smooth.sum())} on smooth faces: outline only)" if smooth is not None else "")
+        + (f" + {n_rims // k} contour cubics (each offered {k} ways)" if contours else "") +
         f" (evidence {seconds['evidence']:.1f} s, "
         f"curves {seconds['curves']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")")
     return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds,
-                      gates, normals, source)
+                      gates, normals, source, smooth)
 
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
@@ -529,7 +553,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             pixel_weight = np.ones(int(cand.rim.max()) + 1)
             pixel_weight[cand.rim] = OUTLINE_WEIGHT
         chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken,
-                                       weight=weight, pixel_weight=pixel_weight)
+                                       weight=weight, pixel_weight=pixel_weight, smooth=cand.smooth, outline=cand.rim)
         if outline_curves > 0 and len(chosen) == max_curves and len(cand.rim):
             more, more_gains = complete_outline(cand.covers, cand.off, chosen, cand.rim,
                                                 sum(ev.lines[v].size for v in cand.views), outline_curves,

@@ -368,7 +368,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             from .discover import choose_curves, find_candidates
 
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
-                                         contours=cfg.contours, log=say)
+                                         contours=cfg.contours, texture=cfg.texture, log=say)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
             strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
             start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline

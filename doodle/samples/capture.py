@@ -22,7 +22,7 @@ from scipy import ndimage
 from ..atomic import atomic_folder
 from ..cameras import Camera, look_at
 from ..strokes.superquadric import matrix_to_quaternion
-from .raycast import _shade, cast
+from .raycast import cast, shade_rays
 from .scenes import DISTANCE, FOV_DEG, SCENES, sample_target, visible_feature_edges
 
 FLOOR_Z = -0.9  # the sample scenes stand on z ≈ -0.9
@@ -78,8 +78,7 @@ def _photo(prims, cam: Camera, k1: float, rng: np.random.Generator, ss: int = 2)
     d = np.stack([x, y, np.ones_like(x)], -1) @ cam.R
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = np.broadcast_to(cam.center, d.shape)
-    _, n, idx = cast(prims, o, d)
-    rgba = _shade(prims, d, n, idx)
+    rgba = shade_rays(prims, o, d)[0]
     rgb = _wall((H, W), rng).reshape(-1, 3)
     t_floor = (FLOOR_Z - o[:, 2]) / np.where(np.abs(d[:, 2]) > 1e-9, d[:, 2], -1e-9)
     on_floor = t_floor > 0

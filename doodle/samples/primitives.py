@@ -26,6 +26,24 @@ def _quadratic_roots(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.nd
     return np.where(ok, t0, np.nan), np.where(ok, t1, np.nan)
 
 
+def _stripes(p: np.ndarray) -> np.ndarray:
+    """Diagonal bands 0.08 wide every 0.24 (local units), like tape or a printed label crossing every face."""
+    return (p @ np.array([1.0, 0.6, 0.8]) / 0.24) % 1.0 < 0.33
+
+
+def _gores(p: np.ndarray) -> np.ndarray:
+    """Six dark gores of a beach ball (by longitude about local z) and a band round its equator."""
+    lon = np.arctan2(p[:, 1], p[:, 0])
+    r = np.linalg.norm(p, axis=1)
+    return (np.sin(6 * lon) > 0.55) ^ (np.abs(p[:, 2]) < 0.12 * r)
+
+
+#: Printed patterns by name: ``f(local points (K, 3)) → (K,)`` True where ink is.
+PRINTS = {"stripes": _stripes, "gores": _gores}
+#: The colour factor of printed ink: dark on any colour, a strong edge (as a decal or label is).
+PRINT_INK = 0.3
+
+
 @dataclass
 class Primitive:
     """Base: pose and colour. Subclasses define the shape in the local frame."""
@@ -33,8 +51,16 @@ class Primitive:
     center: np.ndarray
     R: np.ndarray = field(default_factory=lambda: np.eye(3))
     color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    print: str = ""
+    """A pattern printed on the surface (:data:`PRINTS`; ``""``: plain): texture, which is not structure."""
 
     kind = "primitive"
+
+    def printed(self, points: np.ndarray) -> np.ndarray:
+        """``(K,)`` colour factor of the print at world surface points ``(K, 3)`` (1 where nothing is printed)."""
+        if not self.print:
+            return np.ones(len(points))
+        return np.where(PRINTS[self.print]((points - self.center) @ self.R), PRINT_INK, 1.0)
 
     def to_local(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return (o - self.center) @ self.R, d @ self.R
@@ -71,7 +97,7 @@ class Primitive:
 
     def to_dict(self) -> dict:
         return {"type": self.kind, "center": self.center.tolist(), "rotation_matrix": self.R.tolist(),
-                "color": list(self.color)}
+                "color": list(self.color), **({"print": self.print} if self.print else {})}
 
 
 @dataclass

@@ -37,15 +37,38 @@ def cast(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray) -> 
     return t_best, n_best, idx
 
 
-def _shade(primitives: list[Primitive], dirs: np.ndarray, n: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Premultiplied RGBA ``(K, 4)`` of ray hits (Lambert, two world lights plus ambient)."""
+def printed(primitives: list[Primitive], points: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``(K,)`` colour factor of the primitives' prints at ray hits ``(K, 3)`` (1: no ink, or no hit)."""
+    out = np.ones(len(points))
+    for i, prim in enumerate(primitives):
+        if prim.print:
+            on = idx == i
+            out[on] = prim.printed(points[on])
+    return out
+
+
+def _shade(primitives: list[Primitive], dirs: np.ndarray, n: np.ndarray, idx: np.ndarray,
+           ink: np.ndarray | None = None) -> np.ndarray:
+    """Premultiplied RGBA ``(K, 4)`` of ray hits (Lambert, two world lights plus ambient), times the print's
+    colour factor ``ink`` ``(K,)`` (see :func:`printed`)."""
     n = np.where(np.einsum("ij,ij->i", n, dirs)[:, None] > 0, -n, n)  # face the viewer
     shade = np.full(len(n), _AMBIENT)
     for direction, strength in _LIGHTS:
         shade += strength * np.clip(n @ direction, 0.0, None)
+    if ink is not None:
+        shade = shade * ink
     colors = np.array([p.color for p in primitives] + [(0.0, 0.0, 0.0)])
     hit = (idx >= 0)[:, None]
     return np.concatenate([colors[idx] * np.clip(shade, 0, 1.2)[:, None] * hit, hit.astype(float)], -1)
+
+
+def shade_rays(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cast rays ``(K, 3)`` and shade their hits: premultiplied RGBA ``(K, 4)`` and an anti-aliasing key ``(K,)``
+    that differs across primitive, face and print boundaries."""
+    t, n, idx = cast(primitives, origins, dirs)
+    ink = printed(primitives, origins + np.where(np.isfinite(t), t, 0)[:, None] * dirs, idx)
+    key = (idx + 1) * 2000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100]) + 1000 * (ink < 1)
+    return _shade(primitives, dirs, n, idx, ink), key
 
 
 def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 2) -> np.ndarray:
@@ -57,10 +80,8 @@ def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 
     H, W = camera.height, camera.width
     o, d = camera.rays()
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-    _, n, idx = cast(primitives, o, d)
-    rgba = _shade(primitives, d, n, idx)
+    rgba, key = shade_rays(primitives, o, d)
     if supersample > 1:
-        key = (idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])  # primitive and face
         key = key.reshape(H, W)
         edge = np.zeros((H, W), bool)
         edge |= ndimage.maximum_filter(key, 3) != key
@@ -71,8 +92,7 @@ def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 
         u = (xs[:, None] + du.ravel()[None]).ravel()
         v = (ys[:, None] + dv.ravel()[None]).ravel()
         so, sd = camera.rays_at(u, v)
-        _, sn, sidx = cast(primitives, so, sd)
-        sub = _shade(primitives, sd, sn, sidx).reshape(len(xs), -1, 4).mean(axis=1)
+        sub = shade_rays(primitives, so, sd)[0].reshape(len(xs), -1, 4).mean(axis=1)
         rgba.reshape(H, W, 4)[ys, xs] = sub
     rgba = rgba.reshape(H, W, 4)
     alpha = rgba[..., 3:4]

@@ -104,8 +104,18 @@ def mug() -> list[Primitive]:
     ]
 
 
+def parcel() -> list[Primitive]:
+    """A box printed with diagonal tape and a beach ball on it: texture, which is not structure. The print's
+    edges are as strong as the box's and as consistent across the views, but lie on flat or smooth faces;
+    a sketch draws the box's edges and the ball's outline, not the print."""
+    return [
+        Box(np.array([0.0, 0.0, -0.55]), half=np.array([0.6, 0.45, 0.35]), color=(0.8, 0.66, 0.45), print="stripes"),
+        Sphere(np.array([0.0, 0.0, 0.16]), radius=0.36, color=(0.9, 0.9, 0.92), print="gores"),
+    ]
+
+
 SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp, "tripod": tripod,
-                                                    "mug": mug}
+                                                    "mug": mug, "parcel": parcel}
 
 
 def visible_feature_edges(primitives: list[Primitive], max_len: float = 0.04, margin: float = 2e-3) -> np.ndarray:
@@ -200,7 +210,8 @@ def load_ground_truth(scene_dir: str | os.PathLike) -> dict:
 def primitive_from_dict(d: dict) -> Primitive:
     kinds = {"sphere": Sphere, "box": Box, "cylinder": Cylinder, "cone": Cone, "torus": Torus}
     cls = kinds[d["type"]]
-    kw = {"center": np.asarray(d["center"], float), "R": np.asarray(d["rotation_matrix"], float), "color": tuple(d["color"])}
+    kw = {"center": np.asarray(d["center"], float), "R": np.asarray(d["rotation_matrix"], float), "color": tuple(d["color"]),
+          "print": d.get("print", "")}
     if "half_size" in d:
         kw["half"] = np.asarray(d["half_size"], float)
     for key in ("radius", "height", "major", "minor"):
