@@ -31,9 +31,9 @@ MIN_OUTLINE_GAIN = 0.002
 HALVING_LOSS = 0.015
 """An outline that at least halves the curves beside it is drawn even when the sketch F falls by up to this
 much: one exact outline, not a bundle of contour curves from many views that a view between them draws as
-dashes. The snowman's head, once strokes on smooth faces are contour curves only (:mod:`.texture`): 17
-curves beside its ball at F 0.959 against 43 at 0.969; held out, F 0.973 with the ball and 0.977–0.979
-without, where the head read as a ring of ticks."""
+dashes. The snowman's head, once strokes on smooth faces count only for the outline (:mod:`.texture`): 17
+curves beside its ball at F 0.956 against 43 at 0.962; held out, F 0.973 with the ball and 0.977 without,
+where the head read as a ring of ticks."""
 
 MIN_OUTLINE_PRECISION = 0.7
 """...and when at least this share of its own outline lies on the object's lines or outline (within 0.8 % of
@@ -203,7 +203,8 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     hide lines that are in plain view, so it is dropped. The others are tried as drawn outlines one by one,
     the most promising first (each one's :func:`sketch_score` beside ``curves``); one is drawn when the
     sketch's F over ``cameras`` rises by at least ``min_gain`` with it (or keeps within ``min_gain`` of it with
-    fewer curves beside it, or within :data:`HALVING_LOSS` with half of them) and at least ``min_precision`` of its
+    fewer curves beside it, or within :data:`HALVING_LOSS` with half of them: the one rule for an outline that
+    alone, on top of the curves, lowers F) and at least ``min_precision`` of its
     own outline lies on the object's lines (:func:`outline_precision`). ``curves_beside(sq)`` gives the curves
     that would be chosen beside ``sq``'s drawn outlines (they avoid lines an outline already draws), so an
     outline that only displaces sharp curves gains nothing, with the view each contour curve was traced in
@@ -234,7 +235,9 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
             log(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} of its "
                 f"outline lies on the object's lines)")
             continue
-        if alone[i] < without - max(min_gain, HALVING_LOSS):  # too much worse for any rule below
+        # worse on top of the curves chosen without it: only halving the curves beside it can pay for it
+        halving_only = alone[i] < without - min_gain
+        if alone[i] < without - max(min_gain, HALVING_LOSS):
             log(f"superquadrics: one hides what is behind it but draws no outline (sketch F {alone[i]:.3f} with it, "
                 f"{without:.3f} with the curves alone)")
             continue
@@ -244,9 +247,10 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
         f = score(trial, beside)
         # As good, with fewer curves: one exact outline instead of the contour curves of many views beside each
         # other (a ball's rim drawn by a circle, not by a bundle of arcs); nearly as good with half of them
+        halving = len(beside[0]) <= len(current[0]) / 2 and f >= best - HALVING_LOSS
         simpler = len(beside[0]) < len(current[0]) and f >= best - min_gain
-        simpler |= len(beside[0]) <= len(current[0]) / 2 and f >= best - HALVING_LOSS
-        if f >= best + min_gain or simpler:
+        passes = halving if halving_only else f >= best + min_gain or simpler or halving
+        if passes:
             log(f"superquadrics: one draws its outline (sketch F {best:.3f} → {f:.3f}, {len(beside[0])} curves beside "
                 f"it instead of {len(current[0])})")
             drawn, best, current = trial, max(f, best), beside
