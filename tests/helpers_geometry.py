@@ -4,7 +4,6 @@ axes of a sample scene's thin parts."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from doodle.strokes.bezier import bezier_points
 
@@ -110,17 +109,14 @@ def ink_on_print(strokes, primitives, cameras, tau: float = 2.0) -> float:
 
     from doodle.evaluate import _inked
     from doodle.exporters import DrawOptions, draw_many, to_svg
-    from doodle.samples.raycast import cast, printed
+    from doodle.samples.raycast import shade_rays
 
     on, total = 0, 0
     for cam, drawing in zip(cameras, draw_many(strokes, cameras, DrawOptions(tolerance=0.25))):
         ink = _inked(to_svg(drawing, 0.25), (cam.width, cam.height))
         o, d = cam.rays()
-        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-        t, n, idx = cast(primitives, o, d)
-        dark = printed(primitives, o + np.where(np.isfinite(t), t, 0)[:, None] * d, idx) < 1
-        face = ((idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])).reshape(cam.height, cam.width)
-        dark = dark.reshape(face.shape)
+        _, face, dark = shade_rays(primitives, o.reshape(-1, 3), d.reshape(-1, 3))
+        face, dark = face.reshape(cam.height, cam.width), dark.reshape(cam.height, cam.width)
         edges = lambda a: (ndimage.maximum_filter(a, 3) != a) | (ndimage.minimum_filter(a, 3) != a)  # noqa: E731
         structure = ndimage.distance_transform_edt(~edges(face)) <= tau
         paint = ndimage.distance_transform_edt(~edges(dark.astype(int))) <= tau

@@ -62,13 +62,15 @@ def _shade(primitives: list[Primitive], dirs: np.ndarray, n: np.ndarray, idx: np
     return np.concatenate([colors[idx] * np.clip(shade, 0, 1.2)[:, None] * hit, hit.astype(float)], -1)
 
 
-def shade_rays(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Cast rays ``(K, 3)`` and shade their hits: premultiplied RGBA ``(K, 4)`` and an anti-aliasing key ``(K,)``
-    that differs across primitive, face and print boundaries."""
+def shade_rays(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cast rays ``(K, 3)`` and shade their hits: premultiplied RGBA ``(K, 4)``, a face key ``(K,)`` that differs
+    across primitive and face boundaries (and the background), and whether each hit is inked by a print
+    ``(K,)`` bool."""
     t, n, idx = cast(primitives, origins, dirs)
     ink = printed(primitives, origins + np.where(np.isfinite(t), t, 0)[:, None] * dirs, idx)
-    key = (idx + 1) * 2000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100]) + 1000 * (ink < 1)
-    return _shade(primitives, dirs, n, idx, ink), key
+    face = (idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])
+    return _shade(primitives, dirs, n, idx, ink), face, ink < 1
 
 
 def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 2) -> np.ndarray:
@@ -80,9 +82,9 @@ def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 
     H, W = camera.height, camera.width
     o, d = camera.rays()
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-    rgba, key = shade_rays(primitives, o, d)
+    rgba, face, inked = shade_rays(primitives, o, d)
     if supersample > 1:
-        key = key.reshape(H, W)
+        key = (2 * face + inked).reshape(H, W)  # primitive, face and print
         edge = np.zeros((H, W), bool)
         edge |= ndimage.maximum_filter(key, 3) != key
         edge |= ndimage.minimum_filter(key, 3) != key
