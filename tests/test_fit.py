@@ -112,6 +112,24 @@ class TestShortFits:
                   log=logs.append)
         assert res.strokes.superquadrics.shape[:, 0].min() < 0.4 and any("flat ends" in m for m in logs), logs
 
+    @pytest.mark.slow
+    def test_a_box_is_one_square_superquadric(self, tmp_path):
+        """The parcel's box is grown as one box (both exponents flat), not split into two rounded pills whose
+        outlines meet in a notch in the views from the side (as it was before the square move: ε 0.5–0.9)."""
+        logs = []
+        d = write_sample("parcel", tmp_path / "parcel", n_test=2)
+        res = fit(load_scene(d), FitConfig(), progress=False, log=logs.append)
+        sq = res.strokes.superquadrics
+        box = next(p for p in load_ground_truth(d)["primitives"] if hasattr(p, "half"))
+        assert any("is a box" in m for m in logs), logs
+        k = int(np.argmin(np.linalg.norm(sq.translation - box.center, axis=1)))
+        assert sq.drawn[k] and sq.shape[k].max() < 0.4, (sq.shape, logs)
+        assert np.linalg.norm(sq.translation[k] - box.center) < 0.1
+        assert np.allclose(np.sort(sq.scale[k]), np.sort(box.half), rtol=0.25), (sq.scale[k], box.half)  # ε 0.3 rounds corners: a little larger
+        # no other drawn superquadric is part of the box
+        others = [j for j in range(len(sq)) if j != k and sq.drawn[j]]
+        assert all(sq.translation[j][2] > box.center[2] + box.half[2] for j in others), sq.translation
+
     def test_auto_draws_a_boxy_object_with_curves(self, chair_dir):
         """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
         drawn (some may stay as occluders), and the curves carry face normals for hidden-line removal."""

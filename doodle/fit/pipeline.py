@@ -162,9 +162,10 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
                        ) -> tuple[SuperquadricParams, bool]:
     """Fit as few superquadrics as the silhouettes need.
 
-    Start with one; each round tries two moves — add one at the densest cluster of visual-hull voxels the
-    union does not cover, or split the largest one in two along its longest axis — fits briefly, and keeps
-    the better if the silhouette score (mean of mask IoU and boundary F-score) improves by ``min_gain``.
+    Start with one; each round tries up to three moves — add one at the densest cluster of visual-hull voxels
+    the union does not cover, split the largest one in two along its longest axis, or square the largest
+    rounded one (ε₁ = ε₂ = :data:`FLAT_END`: a box) — fits briefly, and keeps the best if the silhouette score
+    (mean of mask IoU and boundary F-score) improves by ``min_gain``.
     Then each one is tried once with flat ends (ε₁ = :data:`FLAT_END`), kept if the score improves by
     ``min_gain / 2``. A final joint refinement follows. (Fitting many at once and pruning leaves a ball split
     into overlapping pieces whose inner contours show in every view.)
@@ -208,15 +209,25 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
             np.vstack([current.scale[keep], half, half]), np.vstack([current.shape[keep], current.shape[big], current.shape[big]]),
             np.vstack([current.rotation[keep], current.rotation[big], current.rotation[big]]),
             np.vstack([current.translation[keep], current.translation[big] + offset, current.translation[big] - offset])))
+        # Adam does not square a rounded cross-section either: a box fitted as rounded pills splits in two,
+        # side by side, and their outlines meet in a notch. The largest rounded one is tried as a box.
+        rounded = [k for k in range(len(current)) if current.shape[k].max() > FLAT_END]
+        if rounded:
+            boxy = max(rounded, key=lambda k: float(np.prod(current.scale[k])))
+            shape = current.shape.copy()
+            shape[boxy] = FLAT_END
+            candidates.append(replace(current, shape=shape))
         results = []
-        for cand in candidates:
+        for move, cand in enumerate(candidates):
             trial = SuperquadricParams.from_set(cand).to(device)
             if sq_stage(trial, round_steps):
                 return trial, True
-            results.append((score(trial), trial))
-        top, trial = max(results, key=lambda r: r[0])
+            results.append((score(trial), move, trial))
+        top, move, trial = max(results, key=lambda r: r[0])
         if top - best < min_gain:
             break
+        if rounded and move == len(candidates) - 1:
+            say(f"superquadrics: one is a box (score {best:.3f} → {top:.3f})")
         params, best = trial, top
     # Adam does not flatten a rounded end by itself (the mug's body: two stacked pills). Each one is tried
     # once with flat ends and kept so when the silhouettes agree better.
