@@ -158,8 +158,8 @@ def prune_curves(curves: CurveSet, targets, max_distance_px: float, min_length_f
 
 def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg: FitConfig,
                        sq_stage: Callable[..., bool], rng: np.random.Generator,
-                       device: torch.device, say: Callable[[str], None], min_gain: float = 0.01
-                       ) -> tuple[SuperquadricParams, bool]:
+                       device: torch.device, say: Callable[[str], None], min_gain: float = 0.01,
+                       gen: torch.Generator | None = None) -> tuple[SuperquadricParams, bool]:
     """Fit as few superquadrics as the silhouettes need.
 
     Start with one; each round tries up to three moves — add one at the densest cluster of visual-hull voxels
@@ -167,7 +167,8 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
     rounded one (ε₁ = ε₂ = :data:`FLAT_END`: a box) — fits briefly, and keeps the best if the silhouette score
     (mean of mask IoU and boundary F-score) improves by ``min_gain``.
     Then each one is tried once with flat ends (ε₁ = :data:`FLAT_END`), kept if the score improves by
-    ``min_gain / 2``. A final joint refinement follows. (Fitting many at once and pruning leaves a ball split
+    ``min_gain / 2``. A final joint refinement follows. ``gen``, the stages' view sampler, is rewound after
+    each box trial, so that a box that loses changes nothing else the growth draws. (Fitting many at once and pruning leaves a ball split
     into overlapping pieces whose inner contours show in every view.)
     """
     from scipy.spatial import cKDTree
@@ -219,9 +220,13 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
             candidates.append(replace(current, shape=shape))
         results = []
         for move, cand in enumerate(candidates):
+            boxing = bool(rounded) and move == len(candidates) - 1
+            drawn_before = gen.get_state() if boxing and gen is not None else None
             trial = SuperquadricParams.from_set(cand).to(device)
             if sq_stage(trial, round_steps):
                 return trial, True
+            if drawn_before is not None:
+                gen.set_state(drawn_before)
             results.append((score(trial), move, trial))
         top, move, trial = max(results, key=lambda r: r[0])
         if top - best < min_gain:
@@ -535,7 +540,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             return stopped
 
         if cfg.superquadrics == "auto":
-            sq_params, interrupted = grow_superquadrics(interior, sq_scene, frame, cfg, sq_stage, rng, device, say)
+            sq_params, interrupted = grow_superquadrics(interior, sq_scene, frame, cfg, sq_stage, rng, device, say,
+                                                         gen=gen)
         else:
             interrupted = sq_stage(sq_params, cfg.sq_iterations)
         final_sq = sq_params.to_set()
