@@ -125,7 +125,8 @@ class TestShortFits:
         k = int(np.argmin(np.linalg.norm(sq.translation - box.center, axis=1)))
         assert sq.drawn[k] and sq.shape[k].max() < 0.4, (sq.shape, logs)
         assert np.linalg.norm(sq.translation[k] - box.center) < 0.1
-        assert np.allclose(np.sort(sq.scale[k]), np.sort(box.half), rtol=0.25), (sq.scale[k], box.half)  # ε 0.3 rounds corners: a little larger
+        # ε 0.3 rounds the corners, so the superquadric is a little larger than the box
+        assert np.allclose(np.sort(sq.scale[k]), np.sort(box.half), rtol=0.25), (sq.scale[k], box.half)
         # no other drawn superquadric is part of the box
         others = [j for j in range(len(sq)) if j != k and sq.drawn[j]]
         assert all(sq.translation[j][2] > box.center[2] + box.half[2] for j in others), sq.translation

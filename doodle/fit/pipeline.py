@@ -167,9 +167,9 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
     rounded one (ε₁ = ε₂ = :data:`FLAT_END`: a box) — fits briefly, and keeps the best if the silhouette score
     (mean of mask IoU and boundary F-score) improves by ``min_gain``.
     Then each one is tried once with flat ends (ε₁ = :data:`FLAT_END`), kept if the score improves by
-    ``min_gain / 2``. A final joint refinement follows. ``gen``, the stages' view sampler, is rewound after
-    each box trial, so that a box that loses changes nothing else the growth draws. (Fitting many at once and pruning leaves a ball split
-    into overlapping pieces whose inner contours show in every view.)
+    ``min_gain / 2``. A final joint refinement follows. (Fitting many at once and pruning leaves a ball split
+    into overlapping pieces whose inner contours show in every view.) ``gen``, the stages' view sampler, is
+    rewound after each box trial, so that a box that loses changes nothing else the growth draws.
     """
     from scipy.spatial import cKDTree
 
@@ -196,9 +196,9 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
             seed = uncovered[int(np.argmax(counts))]
             near = uncovered[np.linalg.norm(uncovered - seed, axis=1) < 0.3 * frame.radius]
             ext = np.clip(near.std(axis=0) * 1.7, 0.05 * frame.radius, 0.35 * frame.radius)
-            candidates.append(SuperquadricSet(np.vstack([current.scale, ext]), np.vstack([current.shape, [0.9, 0.9]]),
-                                              np.vstack([current.rotation, [1.0, 0, 0, 0]]),
-                                              np.vstack([current.translation, near.mean(0)])))
+            candidates.append(("add", SuperquadricSet(
+                np.vstack([current.scale, ext]), np.vstack([current.shape, [0.9, 0.9]]),
+                np.vstack([current.rotation, [1.0, 0, 0, 0]]), np.vstack([current.translation, near.mean(0)]))))
         big = int(np.argmax(current.scale.max(axis=1)))
         axis = int(np.argmax(current.scale[big]))
         R = quaternion_to_matrix(current.rotation[big])
@@ -206,10 +206,10 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
         half = current.scale[big].copy()
         half[axis] *= 0.5
         keep = [k for k in range(len(current)) if k != big]
-        candidates.append(SuperquadricSet(
+        candidates.append(("split", SuperquadricSet(
             np.vstack([current.scale[keep], half, half]), np.vstack([current.shape[keep], current.shape[big], current.shape[big]]),
             np.vstack([current.rotation[keep], current.rotation[big], current.rotation[big]]),
-            np.vstack([current.translation[keep], current.translation[big] + offset, current.translation[big] - offset])))
+            np.vstack([current.translation[keep], current.translation[big] + offset, current.translation[big] - offset]))))
         # Adam does not square a rounded cross-section either: a box fitted as rounded pills splits in two,
         # side by side, and their outlines meet in a notch. The largest rounded one is tried as a box.
         rounded = [k for k in range(len(current)) if current.shape[k].max() > FLAT_END]
@@ -217,11 +217,10 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
             boxy = max(rounded, key=lambda k: float(np.prod(current.scale[k])))
             shape = current.shape.copy()
             shape[boxy] = FLAT_END
-            candidates.append(replace(current, shape=shape))
+            candidates.append(("box", replace(current, shape=shape)))
         results = []
-        for move, cand in enumerate(candidates):
-            boxing = bool(rounded) and move == len(candidates) - 1
-            drawn_before = gen.get_state() if boxing and gen is not None else None
+        for move, cand in candidates:
+            drawn_before = gen.get_state() if move == "box" and gen is not None else None
             trial = SuperquadricParams.from_set(cand).to(device)
             if sq_stage(trial, round_steps):
                 return trial, True
@@ -231,7 +230,7 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
         top, move, trial = max(results, key=lambda r: r[0])
         if top - best < min_gain:
             break
-        if rounded and move == len(candidates) - 1:
+        if move == "box":
             say(f"superquadrics: one is a box (score {best:.3f} → {top:.3f})")
         params, best = trial, top
     # Adam does not flatten a rounded end by itself (the mug's body: two stacked pills). Each one is tried
