@@ -135,6 +135,19 @@ def _positive_float(ctx: click.Context, param: click.Parameter, value: float) ->
     return value
 
 
+def _share(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
+    if value is not None and not 0 <= value < 1:
+        raise click.BadParameter(f"must be in [0, 1), got {value}")
+    return value
+
+
+min_piece_option = click.option(
+    "--min-piece", type=float, default=None, callback=_share,
+    help="Leave out visible pieces of curves shorter than this share of the object's size on screen (dots, "
+         "stubs of curves seen end-on or peeking out from behind a part); 0 draws every piece "
+         "[default: 0.01, DrawOptions.min_piece].")
+
+
 def view_options(f):
     """Options shared by every command that draws a stroke set: which cameras and how to draw."""
     opts = [
@@ -151,6 +164,7 @@ def view_options(f):
                      help="Parts behind the superquadric volume [default: the style's, else hide]."),
         click.option("--no-silhouettes", is_flag=True, help="Leave out superquadric silhouettes."),
         click.option("--no-curves", is_flag=True, help="Leave out the Bézier curves."),
+        min_piece_option,
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -178,10 +192,13 @@ def _background(value: str | None) -> str | None:
     return value
 
 
-def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool, no_curves: bool):
+def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool = False, no_curves: bool = False,
+                  min_piece: float | None = None):
     from .exporters import DrawOptions
 
-    return DrawOptions(tolerance=tolerance, hidden=hidden, curves=not no_curves, silhouettes=not no_silhouettes)
+    extra = {} if min_piece is None else {"min_piece": min_piece}
+    return DrawOptions(tolerance=tolerance, hidden=hidden, curves=not no_curves, silhouettes=not no_silhouettes,
+                       **extra)
 
 
 @cli.command()
@@ -198,7 +215,8 @@ def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool, no_curves
 @view_options
 def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: bool, sheet: Path | None,
            background: str | None, style: str, no_filters: bool, views: int, scene_dir: Path | None, split: str, size,
-           projection: str, tolerance: float, hidden: str | None, no_silhouettes: bool, no_curves: bool) -> None:
+           projection: str, tolerance: float, hidden: str | None, no_silhouettes: bool, no_curves: bool,
+           min_piece: float | None) -> None:
     """Draw STROKES for orbit (or dataset) cameras as exact SVG paths, PNG, PDF and a contact sheet."""
     from .exporters import ExportOptions, export_cameras, export_views
     from .strokes import read_strokes
@@ -211,7 +229,8 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
     svg = want_svg if want_svg is not None else not (png or pdf)
     opts = ExportOptions(svg=svg, png=png, pdf=pdf, sheet=sheet, background=_background(background), style=st,
                          filters=not no_filters, source=str(strokes),
-                         draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves))
+                         draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves,
+                                            min_piece))
     with _progress(len(cams), "drawing") as bar:
         files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(k - bar.n))
     views = [f for f in files if sheet is None or f != Path(sheet)]
@@ -234,10 +253,11 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
 @click.option("--bob", type=float, default=0.0, show_default=True, help="Gentle up-down motion, degrees.")
 @click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
               help="Parts behind the superquadric volume [default: the style's, else hide].")
+@min_piece_option
 @style_options
 def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None, svg: Path | None, frames: int,
             fps: float, size: int, elevation: float | None, bob: float, hidden: str | None, style: str,
-            no_filters: bool) -> None:
+            no_filters: bool, min_piece: float | None) -> None:
     """Render a seamless turntable of STROKES as GIF, APNG, MP4 and/or animated SVG."""
     from .animate import AnimateOptions, animate_many
     from .strokes import read_strokes
@@ -249,7 +269,8 @@ def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None
 
     s = read_strokes(strokes)
     opt = AnimateOptions(frames=frames, fps=fps, size=size, style=load_style(style), elevation_deg=elevation,
-                         bob_deg=bob, hidden=hidden or "", filters=not no_filters)
+                         bob_deg=bob, hidden=hidden or "", filters=not no_filters,
+                         draw=_draw_options(0.25, hidden or "", min_piece=min_piece))
     with _progress(frames, "frames") as bar:
         written = animate_many(s, outputs, opt, progress=lambda k, n: bar.update(k - bar.n))
     click.echo("wrote " + ", ".join(str(p) for p in written))

@@ -11,6 +11,7 @@ from scipy import ndimage
 from doodle.cameras import Camera, look_at, orbit_cameras
 from doodle.cli import cli
 from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg, union_mask
+from doodle.exporters.drawing import on_screen_size, piece_length
 from doodle.exporters.project import depth_intervals, project_curve
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, write_strokes
 from doodle.strokes.bezier import bezier_points
@@ -106,6 +107,44 @@ class TestHiddenLines:
         dash = draw(_strokes(None, sq), cam, DrawOptions(hidden="dash"))
         assert not any(p.id.startswith("silhouette-001") for p in hide.paths)
         assert any(p.id.startswith("hidden-silhouette-001") for p in dash.layer("hidden"))
+
+
+class TestStubs:
+    """Pieces shorter than ``DrawOptions.min_piece`` of the object's on-screen size are dots: not drawn."""
+
+    def test_a_curve_seen_end_on_is_no_dot(self):
+        cam = _camera([0, 4.0, 0.0])
+        end_on = [[[0.05, 0.5, 0.0], [0.05, 0.2, 0.0], [0.05, -0.2, 0.0], [0.05, -0.5, 0.0]]]  # along the view
+        size = on_screen_size(cam, SceneFrame(radius=1.0))
+        assert 300 < size < 400  # 2 · f · r / distance, about
+        drawn = draw(_strokes(end_on), cam, DrawOptions(min_piece=0.0))
+        (piece,) = [sp for op in drawn.paths for sp in op.subpaths]
+        assert 0 < piece_length(piece) < DrawOptions().min_piece * size  # a dot at the default
+        assert not [op for op in draw(_strokes(end_on), cam).paths if op.subpaths]
+
+    def test_a_stub_peeking_out_from_behind_a_part_is_left_out(self):
+        sphere = SuperquadricSet(np.array([[0.5, 0.5, 0.5]]), np.ones((1, 2)), np.array([I]), np.zeros((1, 3)))
+        behind = [[[-0.85, -1.0, 0.0], [0.0, -1.0, 0.0], [0.8, -1.0, 0.0], [1.6, -1.0, 0.0]]]  # peeks out on the left
+        s, cam = _strokes(behind, sphere), _camera([0, 4.0, 0.0])
+        every = draw(s, cam, DrawOptions(min_piece=0.0))
+        lengths = sorted(piece_length(sp) for op in every.paths if op.id == "curve-000" for sp in op.subpaths)
+        assert len(lengths) == 2 and lengths[0] < 0.5 * lengths[1]
+        size = on_screen_size(cam, s.frame)
+        cut = draw(s, cam, DrawOptions(min_piece=0.5 * (lengths[0] + lengths[1]) / size))
+        kept = [piece_length(sp) for op in cut.paths if op.id == "curve-000" for sp in op.subpaths]
+        assert kept == pytest.approx([lengths[1]])
+        assert not [op for op in draw(s, cam, DrawOptions(min_piece=0.9)).paths if op.id == "curve-000"]
+
+    def test_cli_min_piece(self, tmp_path):
+        s = random_strokes(n_curves=6, n_sq=1)
+        write_strokes(tmp_path / "s.doodle", s)
+        ok = CliRunner().invoke(cli, ["export", str(tmp_path / "s.doodle"), "-o", str(tmp_path / "v"), "--views", "2",
+                                      "--min-piece", "0"])
+        assert ok.exit_code == 0, ok.output
+        bad = CliRunner().invoke(cli, ["export", str(tmp_path / "s.doodle"), "-o", str(tmp_path / "w"), "--views", "2",
+                                       "--min-piece", "1.5"])
+        assert bad.exit_code == 2 and "--min-piece" in bad.output and "[0, 1)" in bad.output
+        assert not (tmp_path / "w").exists()
 
 
 def _reference(sq, cam):

@@ -10,7 +10,7 @@ import numpy as np
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.bezier import bezier_points
-from ..strokes.model import CurveSet, Occluder, StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
 from .project import depth_intervals, project_curves, visibility_runs
@@ -36,6 +36,10 @@ class DrawOptions:
     """Depth, as a fraction of the scene radius, that a point may lie under the union's surface and still
     count as visible (feature curves lie on the object the superquadrics only approximate)."""
     silhouette_grid: tuple[int, int] = (48, 96)
+    min_piece: float = 0.01
+    """Visible pieces of a curve shorter than this share of the object's size on screen (the diameter of
+    its bounding sphere there) are not drawn: a curve seen end-on, or a longer one that peeks out from behind
+    a part, leaves a stub that reads as a dot or a tick."""
 
 
 @dataclass
@@ -109,7 +113,8 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
     contour = (curves.gates > 0) & (curves.normals is not None)
     wanted = np.flatnonzero(np.where(contour, opt.silhouettes, opt.curves))
     if len(wanted):
-        for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near, volume)):
+        for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near, volume,
+                                                strokes.frame)):
             mine.extend(ops)
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
 
@@ -247,9 +252,22 @@ def occlusion_probes(points: np.ndarray, t: np.ndarray, normals: np.ndarray | No
     return points + np.where(length > 1e-6, margin * n / np.maximum(length, 1e-12), 0.0)
 
 
+def on_screen_size(camera: Camera, frame: SceneFrame) -> float:
+    """The diameter in pixels of the sphere ``frame`` (centre, radius) seen by ``camera`` at its centre."""
+    centre = np.asarray(frame.center, float)
+    uv, _ = camera.project(np.stack([centre, centre + frame.radius * np.asarray(camera.R)[0]]))
+    return 2.0 * float(np.linalg.norm(uv[1] - uv[0]))
+
+
+def piece_length(cubics: np.ndarray) -> float:
+    """Length in pixels of a piece of 2D cubics ``(K, 4, 2)`` (8 samples each: a little short on tight turns)."""
+    pts = bezier_points(cubics, np.linspace(0, 1, 8))
+    return float(np.linalg.norm(np.diff(pts, axis=-2), axis=-1).sum())
+
+
 def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras: list[Camera],
-                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None = None
-                 ) -> list[list[PathOp]]:
+                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None = None,
+                 frame: SceneFrame | None = None) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
 
     A curve point is hidden when the superquadrics or the occluder ``volume`` cover it (``margin`` given) or
@@ -292,8 +310,11 @@ def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras
     pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]
     projected = project_curves(controls, [(v, n, lo, hi) for v, n, lo, hi, _ in pieces], cameras, opt.tolerance)
+    shortest = opt.min_piece * np.array([on_screen_size(c, frame) for c in cameras]) if frame is not None else None
     ops: dict[tuple[int, int, bool], PathOp] = {}
     for (v, n, _, _, h), (cubics, _) in zip(pieces, projected):
+        if shortest is not None and shortest[v] > 0 and piece_length(cubics) < shortest[v]:
+            continue
         kind, layer = ("contour", "silhouettes") if gates[n] > 0 else ("curve", "curves")
         name = f"{kind}-{ids[n]:03d}"
         op = ops.setdefault((v, n, h), PathOp(f"hidden-{name}" if h else name, "hidden" if h else layer))
