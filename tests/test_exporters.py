@@ -10,6 +10,7 @@ from scipy import ndimage
 
 from doodle.cameras import Camera, look_at, orbit_cameras
 from doodle.cli import cli
+from doodle.errors import DoodleError
 from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg, union_mask
 from doodle.exporters.drawing import on_screen_size, piece_length
 from doodle.exporters.project import depth_intervals, project_curve
@@ -134,6 +135,12 @@ class TestStubs:
         kept = [piece_length(sp) for op in cut.paths if op.id == "curve-000" for sp in op.subpaths]
         assert kept == pytest.approx([lengths[1]])
         assert not [op for op in draw(s, cam, DrawOptions(min_piece=0.9)).paths if op.id == "curve-000"]
+
+    def test_the_object_behind_the_camera_gives_no_size(self):
+        cam = _camera([0, 4.0, 0.0])
+        assert on_screen_size(cam, SceneFrame(center=np.array([0, 9.0, 0]), radius=1.0)) == 0.0
+        with pytest.raises(DoodleError, match="min_piece"):
+            draw(_strokes([[[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]]), cam, DrawOptions(min_piece=-0.1))
 
     def test_cli_min_piece(self, tmp_path):
         s = random_strokes(n_curves=6, n_sq=1)

@@ -98,6 +98,8 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
     opt = options or DrawOptions()
     if opt.hidden not in ("show", "dash", "hide"):
         raise DoodleError(f"hidden mode must be show, dash or hide, got {opt.hidden!r}")
+    if not 0 <= opt.min_piece < 1:
+        raise DoodleError(f"min_piece must be in [0, 1), got {opt.min_piece!r}")
     for camera in cameras:
         check_camera(strokes, camera)
     sq = strokes.superquadrics
@@ -253,9 +255,12 @@ def occlusion_probes(points: np.ndarray, t: np.ndarray, normals: np.ndarray | No
 
 
 def on_screen_size(camera: Camera, frame: SceneFrame) -> float:
-    """The diameter in pixels of the sphere ``frame`` (centre, radius) seen by ``camera`` at its centre."""
+    """The diameter in pixels of the sphere ``frame`` (centre, radius) seen by ``camera`` at its centre; 0 when
+    the centre is not in front of the camera (no size to compare with)."""
     centre = np.asarray(frame.center, float)
-    uv, _ = camera.project(np.stack([centre, centre + frame.radius * np.asarray(camera.R)[0]]))
+    uv, depth = camera.project(np.stack([centre, centre + frame.radius * np.asarray(camera.R)[0]]))
+    if camera.projection != "orthographic" and not depth[0] > 0:
+        return 0.0
     return 2.0 * float(np.linalg.norm(uv[1] - uv[0]))
 
 
