@@ -9,7 +9,7 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import DoodleError
-from ..strokes.bezier import bezier_points
+from ..strokes.bezier import bezier_length, bezier_points
 from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
@@ -266,20 +266,20 @@ def on_screen_size(camera: Camera, frame: SceneFrame) -> float:
 
 def piece_length(cubics: np.ndarray) -> float:
     """Length in pixels of a piece of 2D cubics ``(K, 4, 2)`` (8 samples each: a little short on tight turns)."""
-    pts = bezier_points(cubics, np.linspace(0, 1, 8))
-    return float(np.linalg.norm(np.diff(pts, axis=-2), axis=-1).sum())
+    return float(bezier_length(cubics, 8).sum())
 
 
 def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras: list[Camera],
-                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None = None,
-                 frame: SceneFrame | None = None) -> list[list[PathOp]]:
+                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None,
+                 frame: SceneFrame) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
 
     A curve point is hidden when the superquadrics or the occluder ``volume`` cover it (``margin`` given) or
     when both faces of its normals turn away from the camera (unless ``opt.hidden`` is ``show``). A contour curve's points are not
     drawn at all, in any layer, where the view does not graze the surface (:func:`off_contour`): there they
     are no line of the object, hidden or not; the rest goes in the silhouettes layer (ids ``contour-NNN``).
-    ``ids``: each curve's index in the stroke set, for the path ids."""
+    ``ids``: each curve's index in the stroke set, for the path ids; ``frame``: the stroke set's, whose
+    on-screen size sets the shortest piece drawn (``opt.min_piece``)."""
     controls = curves.control_points
     normals = curves.normals if opt.hidden != "show" else None
     gates = curves.gates if curves.normals is not None else np.zeros(len(curves))
@@ -315,10 +315,10 @@ def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras
     pieces = [(v, n, lo, hi, h) for (v, n, _, _), mine in zip(intervals, runs) for lo, hi, h in mine
               if not (h and opt.hidden == "hide")]
     projected = project_curves(controls, [(v, n, lo, hi) for v, n, lo, hi, _ in pieces], cameras, opt.tolerance)
-    shortest = opt.min_piece * np.array([on_screen_size(c, frame) for c in cameras]) if frame is not None else None
+    shortest = opt.min_piece * np.array([on_screen_size(c, frame) for c in cameras])
     ops: dict[tuple[int, int, bool], PathOp] = {}
     for (v, n, _, _, h), (cubics, _) in zip(pieces, projected):
-        if shortest is not None and shortest[v] > 0 and piece_length(cubics) < shortest[v]:
+        if shortest[v] > 0 and piece_length(cubics) < shortest[v]:
             continue
         kind, layer = ("contour", "silhouettes") if gates[n] > 0 else ("curve", "curves")
         name = f"{kind}-{ids[n]:03d}"
