@@ -291,3 +291,32 @@ def test_an_outline_reach_explains_an_outline_a_few_pixels_off(ball_rims):
     assert len(np.unique(np.concatenate(near))) < 0.5 * outline
     assert len(np.unique(np.concatenate(wide))) > 0.95 * outline
     assert off_near.sum() > 0.3 * ink.sum() and off_wide.sum() < 0.02 * ink.sum()
+
+
+def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
+    from doodle.arrays import nearest_voxels
+    from doodle.exporters.visibility import _slab, volume_blocked
+    from doodle.strokes.model import Occluder
+
+    rng = np.random.default_rng(5)
+    # scattered blobs with holes and thin walls: segments graze, pass beside and cross them
+    occupied = ndimage.binary_dilation(rng.random((24, 20, 16)) > 0.995, iterations=2)
+    occupied[5:18, 10, 3:12] = True
+    axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    vol = Occluder(np.array([-1.0, -0.8, -0.6]), 0.08, axes, occupied)
+    ends = rng.uniform(-2, np.array(occupied.shape) + 1, size=(3000, 3))  # in voxels, some outside the grid
+    e = vol.origin + ends * vol.voxel @ axes
+    o = e + rng.normal(size=(3000, 3)) * 3.0
+    fast = volume_blocked(o, e, vol)
+    # every sample, each segment's own: n evenly spaced, at most half a voxel apart, over the grid's padded box
+    a, b = vol.coordinates(o), vol.coordinates(e)
+    half = (np.array(occupied.shape) + 1) / 2
+    t_in, t_out = (np.clip(t, 0, 1) for t in _slab(a - (np.array(occupied.shape) - 1) / 2, b - a, half))
+    padded = np.pad(occupied, 1)
+    brute = np.zeros(len(o), bool)
+    for k in np.flatnonzero(t_out > t_in):
+        n = int(np.ceil((t_out[k] - t_in[k]) * np.linalg.norm(b[k] - a[k]) * 2)) + 1
+        t = t_in[k] + (t_out[k] - t_in[k]) * np.arange(n) / max(n - 1, 1)
+        brute[k] = nearest_voxels(padded, a[k] + t[:, None] * (b[k] - a[k])).any()
+    assert 0.2 < fast.mean() < 0.8, fast.mean()
+    assert (fast == brute).all()

@@ -94,3 +94,23 @@ class TestFramesAndUnion:
     def test_empty_union_is_outside(self):
         z = np.zeros((0, 3))
         assert np.isinf(union_log_inside_outside(np.zeros((2, 3)), z, np.zeros((0, 2)), np.zeros((0, 4)), z)).all()
+
+
+class TestRayOccupancy:
+    def test_same_value_and_gradient_as_differentiating_every_sample(self):
+        from doodle.fit.objectives.edges import ray_occupancy, union_occupancy
+
+        gen = torch.Generator().manual_seed(3)
+        params = [torch.rand(3, 3, generator=gen) * 0.5 + 0.2, torch.rand(3, 2, generator=gen) * 0.8 + 0.2,
+                  torch.nn.functional.normalize(torch.randn(3, 4, generator=gen), dim=1), torch.randn(3, 3, generator=gen) * 0.3]
+        params = [p.requires_grad_() for p in params]
+        rays = torch.randn(500, 16, 3, generator=gen) * 0.6
+        weights = torch.rand(500, generator=gen)
+        full = union_occupancy(rays, *params, 8.0).max(dim=1).values
+        fast = ray_occupancy(rays, *params, 8.0)
+        assert torch.allclose(full, fast, atol=1e-6)
+        g_full = torch.autograd.grad((full * weights).sum(), params)
+        g_fast = torch.autograd.grad((fast * weights).sum(), params)
+        assert all(g.abs().sum() > 0 for g in g_fast)
+        for a, b in zip(g_full, g_fast):
+            assert torch.allclose(a, b, atol=1e-5, rtol=1e-4)

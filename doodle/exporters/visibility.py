@@ -9,6 +9,7 @@ are sampled, and only inside the box, so cost scales with the rays that actually
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from ..arrays import nearest_voxels
 from ..cameras import Camera
@@ -108,9 +109,20 @@ def ray_origins(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> 
     return np.where(ortho[:, None], points - depth * forward, centers)
 
 
-def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder, chunk: int = 1 << 12) -> np.ndarray:
+# samples per voxel width along a segment: 2 (every half voxel) never steps over a voxel it crosses
+SAMPLES_PER_VOXEL = 2
+
+
+def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder) -> np.ndarray:
     """Whether each segment ``origins[k] → ends[k]`` ``(P, 3)`` passes through an occupied voxel of
-    ``volume``, ``(P,)``: sampled every half voxel, only where it crosses the grid's box."""
+    ``volume``, ``(P,)``: sampled at most every half voxel where it crosses the grid's box, a sample blocking
+    when its nearest voxel is occupied.
+
+    The samples are visited in order, skipping through empty space: where a sample's nearest voxel is ``k``
+    voxels (chessboard distance) from any occupied one, every sample less than ``k − 1`` voxels away along each
+    axis has an empty nearest voxel too, so it is not looked at. A camera ray to a point on the object crosses
+    mostly empty space, so a few dozen lookups replace hundreds, with the same answer as testing every sample.
+    """
     P = len(origins)
     out = np.zeros(P, bool)
     if P == 0 or not volume.occupied.any():
@@ -120,14 +132,22 @@ def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder, chun
     t_in, t_out = _slab(a - (shape - 1) / 2, b - a, (shape + 1) / 2)  # the segment is t ∈ [0, 1]
     t_in, t_out = np.clip(t_in, 0, 1), np.clip(t_out, 0, 1)
     length = np.linalg.norm(b - a, axis=1)
-    crossing = np.flatnonzero((t_out > t_in) & (length > 0))
-    padded = np.pad(volume.occupied, 1)
-    for k in range(0, len(crossing), chunk):
-        idx = crossing[k:k + chunk]
-        n = int(np.ceil(((t_out[idx] - t_in[idx]) * length[idx]).max() * 2)) + 1
-        s = np.linspace(0, 1, n)
-        t = t_in[idx, None] + (t_out[idx] - t_in[idx])[:, None] * s  # (I, n)
-        out[idx] = nearest_voxels(padded, a[idx, None, :] + t[..., None] * (b - a)[idx, None, :]).any(axis=1)
+    ray = np.flatnonzero((t_out > t_in) & (length > 0))
+    # the chessboard distance of every voxel (the grid padded with one empty voxel) to an occupied one
+    free = ndimage.distance_transform_cdt(~np.pad(volume.occupied, 1), metric="chessboard")
+    start, step = a[ray] + t_in[ray, None] * (b - a)[ray], (t_out - t_in)[ray, None] * (b - a)[ray]
+    n = np.ceil((t_out - t_in)[ray] * length[ray] * SAMPLES_PER_VOXEL).astype(np.intp) + 1  # samples 0 … n − 1
+    step /= np.maximum(n - 1, 1)[:, None]
+    reach = np.abs(step).max(axis=1)  # voxels moved along the steepest axis per sample
+    j = np.zeros(len(ray), np.intp)
+    while len(ray):
+        k = nearest_voxels(free, start + j[:, None] * step)
+        out[ray[k == 0]] = True
+        # the largest m with m · reach < k − 1: samples j + 1 … j + m are empty too
+        skip = np.maximum(np.ceil((k - 1) / np.maximum(reach, 1e-12)).astype(np.intp) - 1, 0)
+        j = j + skip + 1
+        go = (k > 0) & (j < n)
+        ray, start, step, reach, n, j = ray[go], start[go], step[go], reach[go], n[go], j[go]
     return out
 
 

@@ -45,6 +45,20 @@ def union_occupancy(points: torch.Tensor, scale: torch.Tensor, shape: torch.Tens
     return occ.reshape(points.shape[:-1])
 
 
+def ray_occupancy(points: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor, q: torch.Tensor,
+                  trans: torch.Tensor, gamma: float) -> torch.Tensor:
+    """Soft occupancy of rays, the max of :func:`union_occupancy` over each ray's samples ``(R, S, 3)`` → ``(R,)``.
+
+    A max passes its gradient to its argument alone, so the samples are scored without autograd and only each
+    ray's maximising sample is evaluated again with it: the same value and gradient as differentiating every
+    sample, at a fraction of the time (the backward pass was 60 % of the superquadric stage).
+    """
+    with torch.no_grad():
+        best = union_occupancy(points, scale, shape, q, trans, gamma).argmax(dim=1)
+    top = points[torch.arange(len(points), device=points.device), best]
+    return union_occupancy(top, scale, shape, q, trans, gamma)
+
+
 class EdgesObjective:
     """See the module docstring. Hyper-parameters are in scene-radius and pixel units."""
 
@@ -108,7 +122,7 @@ class EdgesObjective:
         jitter = torch.rand(len(o), S, generator=self.gen, device=o.device)
         ts = t0[:, None] + (t1 - t0)[:, None] * (torch.arange(S, device=o.device) + jitter) / S
         pts = o[:, None] + ts[..., None] * d[:, None]
-        occ = union_occupancy(pts, scale, shape, q, trans, self.gamma).max(dim=1).values
+        occ = ray_occupancy(pts, scale, shape, q, trans, self.gamma)
         occ = torch.where(hit, occ, torch.zeros_like(occ)).clamp(1e-5, 1 - 1e-5)
         bce = torch.nn.functional.binary_cross_entropy(occ, y)
         # keep shapes inside the scene: nothing should grow beyond the bounding sphere
