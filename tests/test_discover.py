@@ -64,6 +64,27 @@ class TestLines:
         assert len(ys) > 30 and np.all((ys >= 36) & (ys < 40)) and xs.min() >= 60
 
 
+def test_line_maps_on_the_objects_box_equal_those_on_the_whole_frame(chair, monkeypatch):
+    from doodle.fit import evidence
+
+    scene, _ = chair
+    # a busy background: the crop's border must not make lines of it
+    rng = np.random.default_rng(1)
+    backdrop = rng.integers(0, 255, scene.images[0].shape, dtype=np.uint8)
+    views = [(np.where(m[..., None], im, backdrop), m) for im, m in zip(scene.images[:4], scene.masks[:4])]
+    cropped = [evidence.view_maps(im, m) for im, m in views]
+    cropped_lines = [object_lines(im, m) for im, m in views]
+    assert evidence._object_box(views[0][1]) != (slice(None), slice(None))  # the test crops something
+    monkeypatch.setattr(evidence, "CROP_PAD", 10_000)  # the box is the whole frame
+    for (im, m), c, lines in zip(views, cropped, cropped_lines):
+        full = evidence.view_maps(im, m)
+        assert full.lines.any() and np.array_equal(full.lines, c.lines) and np.array_equal(lines, object_lines(im, m))
+        np.testing.assert_array_equal(full.response, c.response)
+        np.testing.assert_array_equal(full.sdf, c.sdf)
+        near = full.response > 0.05  # where the vote reads the directions
+        np.testing.assert_array_equal(full.directions[near], c.directions[near])
+
+
 class TestEvidence:
     def test_hull_holds_the_chair(self, chair):
         scene, gt = chair

@@ -162,8 +162,27 @@ def object_lines(image: np.ndarray, mask: np.ndarray | None, sigma: float = 1.5,
     size (a cable, a leg, a handle) adds its axis, which every view agrees on, while its two rims move with
     the view (:func:`thin_parts`).
     """
-    gray, gx, gy = _gradients(image, sigma)
-    return _lines(gray, gx, gy, mask, None, sigma, low, high, density, thin)
+    box = _object_box(mask)
+    lines = np.zeros(image.shape[:2], bool)
+    gray, gx, gy = _gradients(image[box], sigma)
+    lines[box] = _lines(gray, gx, gy, None if mask is None else mask[box], None, sigma, low, high, density, thin)
+    return lines
+
+
+CROP_PAD = 24
+"""Pixels kept around the mask's box when a view's line maps are computed on that box alone: every line lies
+within 2 px of the mask, and the smoothing and Canny's hysteresis reach about 10 px, so beyond 24 px nothing
+that is drawn changes. On Lego the object fills a third of the frame, and the maps cost that share."""
+
+
+def _object_box(mask: np.ndarray | None) -> tuple[slice, slice]:
+    """The mask's bounding box grown by :data:`CROP_PAD` px, clipped to the image (the whole image when there
+    is no mask or it is empty)."""
+    if mask is None or not mask.any():
+        return slice(None), slice(None)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return (slice(max(rows[0] - CROP_PAD, 0), rows[-1] + 1 + CROP_PAD),
+            slice(max(cols[0] - CROP_PAD, 0), cols[-1] + 1 + CROP_PAD))
 
 
 @dataclass
@@ -186,20 +205,31 @@ def view_maps(image: np.ndarray, mask: np.ndarray, sigma: float = 1.5, sigma_px:
     that line's (across the image gradient there, or the mask's gradient on the mask boundary, where the
     object may match the background's brightness).
     """
-    inside = ndimage.distance_transform_edt(mask)
+    # Only the signed distance needs the whole frame (the carving reads it far from the object); the line maps
+    # are computed on the object's box (:data:`CROP_PAD`), where every line lies.
     outside = ndimage.distance_transform_edt(~mask)
-    sdf = (np.where(mask, inside, -outside) + slack_px).astype(np.float32)
-    gray, gx, gy = _gradients(image, sigma)
-    lines = _lines(gray, gx, gy, mask, inside, sigma, 0.04, 0.08, 0.08, thin)
-    m = ndimage.gaussian_filter(mask.astype(np.float32), sigma)
-    rim = mask ^ ndimage.binary_erosion(mask)
+    box = _object_box(mask)
+    crop = mask[box]
+    inside = ndimage.distance_transform_edt(crop)
+    sdf = -outside
+    sdf[box] = np.where(crop, inside, sdf[box])
+    sdf = (sdf + slack_px).astype(np.float32)
+    gray, gx, gy = _gradients(image[box], sigma)
+    lines = _lines(gray, gx, gy, crop, inside, sigma, 0.04, 0.08, 0.08, thin)
+    m = ndimage.gaussian_filter(crop.astype(np.float32), sigma)
+    rim = crop ^ ndimage.binary_erosion(crop)
     gx = np.where(rim, ndimage.sobel(m, 1), gx)
     gy = np.where(rim, ndimage.sobel(m, 0), gy)
     norm = np.maximum(np.hypot(gx, gy), 1e-12)
     dist, (iy, ix) = ndimage.distance_transform_edt(~lines, return_indices=True)
-    directions = np.stack([-gy / norm, gx / norm], -1).astype(np.float32)[iy, ix]
-    response = np.exp(-dist**2 / (2 * sigma_px**2)).astype(np.float32)
-    return ViewMaps(lines, response, directions, sdf)
+    shape = mask.shape
+    full_lines = np.zeros(shape, bool)
+    full_lines[box] = lines
+    directions = np.zeros((*shape, 2), np.float32)
+    directions[box] = np.stack([-gy / norm, gx / norm], -1).astype(np.float32)[iy, ix]
+    response = np.zeros(shape, np.float32)  # beyond the box, lines are more than CROP_PAD px away: 0
+    response[box] = np.exp(-dist**2 / (2 * sigma_px**2))
+    return ViewMaps(full_lines, response, directions, sdf)
 
 
 def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
