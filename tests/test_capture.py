@@ -126,6 +126,49 @@ def test_holes_are_inconsistent_blobs_where_no_object_point_lands():
     assert not _holes(error, hull, points[:5]).any()
 
 
+def test_a_photo_consistent_strip_the_background_colour_stays_object():
+    """A strip of the object coloured like the background (Lego's grey lower edge of its plate): GrabCut's
+    colour models cut it off; the photos agreeing on its colour at a depth in the hull keep it."""
+    from doodle.fit.automask import _final_cut, _surely_object
+
+    rng = np.random.default_rng(0)
+    H = W = 96
+    grey = np.array([110, 110, 110])
+    image = np.clip(grey + rng.normal(0, 40, (H, W, 3)), 0, 255)  # a busy backdrop around grey
+    image[20:60, 20:76] = [230, 190, 40]  # the object's body …
+    image[60:66, 20:76] = grey + rng.normal(0, 4, (6, 56, 3))  # … and its strip, the backdrop's mean colour
+    image = image.astype(np.uint8)
+    truth = np.zeros((H, W), bool)
+    truth[20:66, 20:76] = True
+    hull = ndimage_dilate(truth, 2)  # the hull's projection: a little fat
+    yy, xx = np.mgrid[22:58:3, 22:74:3]
+    points = np.c_[xx.ravel(), yy.ravel()].astype(float) + 0.5  # SfM points on the body only
+    error = np.where(hull, 30.0, 0.0)  # the backdrop seen through the fat hull: inconsistent
+    error[truth] = 3.0  # the surface: the neighbouring photos agree
+    core_error = error.copy()
+    core_error[62:66] = np.inf  # the strip's lower half lies outside the hull itself (only in the wider band) …
+    no_holes = np.zeros_like(hull)
+    plain = _final_cut(image, hull, points, no_holes)
+    sure = _surely_object(error, error, hull, points, no_holes)
+    kept = _final_cut(image, hull, points, no_holes, sure)
+    assert plain[61:65, 24:72].mean() < 0.5  # GrabCut alone drops the strip
+    # kept, at the cost of some backdrop of its colour that the object's colour model now takes: a better mask
+    assert kept[60:66, 22:74].all() and _iou(kept, truth) > _iou(plain, truth) + 0.03
+    assert sure[truth].all() and not sure[hull & ~truth].any()
+    # … which is then not sure (only the hull's own depths count), nor are holes, nor is anything without points
+    assert not _surely_object(error, core_error, hull, points, no_holes)[62:66].any()
+    holes = np.zeros_like(hull)
+    holes[30:40, 30:40] = True
+    assert not _surely_object(error, error, hull, points, holes)[holes].any()
+    assert not _surely_object(error, error, hull, points[:5], no_holes).any()
+
+
+def ndimage_dilate(mask: np.ndarray, r: int) -> np.ndarray:
+    from scipy import ndimage
+
+    return ndimage.binary_dilation(mask, iterations=r)
+
+
 def test_support_plane_is_removed():
     from doodle.cameras import Camera, look_at
     from doodle.fit.automask import remove_support_plane
