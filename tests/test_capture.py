@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 from PIL import Image
+from scipy import ndimage
 
 from doodle.cli import cli
 from doodle.errors import SceneError
@@ -140,7 +141,7 @@ def test_a_photo_consistent_strip_the_background_colour_stays_object():
     image = image.astype(np.uint8)
     truth = np.zeros((H, W), bool)
     truth[20:66, 20:76] = True
-    hull = ndimage_dilate(truth, 2)  # the hull's projection: a little fat
+    hull = ndimage.binary_dilation(truth, iterations=2)  # the hull's projection: a little fat
     yy, xx = np.mgrid[22:58:3, 22:74:3]
     points = np.c_[xx.ravel(), yy.ravel()].astype(float) + 0.5  # SfM points on the body only
     error = np.where(hull, 30.0, 0.0)  # the backdrop seen through the fat hull: inconsistent
@@ -161,12 +162,6 @@ def test_a_photo_consistent_strip_the_background_colour_stays_object():
     holes[30:40, 30:40] = True
     assert not _surely_object(error, error, hull, points, holes)[holes].any()
     assert not _surely_object(error, error, hull, points[:5], no_holes).any()
-
-
-def ndimage_dilate(mask: np.ndarray, r: int) -> np.ndarray:
-    from scipy import ndimage
-
-    return ndimage.binary_dilation(mask, iterations=r)
 
 
 def test_support_plane_is_removed():

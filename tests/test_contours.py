@@ -295,7 +295,7 @@ def test_an_outline_reach_explains_an_outline_a_few_pixels_off(ball_rims):
 
 def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
     from doodle.arrays import nearest_voxels
-    from doodle.exporters.visibility import _slab, volume_blocked
+    from doodle.exporters.visibility import SAMPLES_PER_VOXEL, _slab, volume_blocked
     from doodle.strokes.model import Occluder
 
     rng = np.random.default_rng(5)
@@ -315,7 +315,7 @@ def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
     padded = np.pad(occupied, 1)
     brute = np.zeros(len(o), bool)
     for k in np.flatnonzero(t_out > t_in):
-        n = int(np.ceil((t_out[k] - t_in[k]) * np.linalg.norm(b[k] - a[k]) * 2)) + 1
+        n = int(np.ceil((t_out[k] - t_in[k]) * np.linalg.norm(b[k] - a[k]) * SAMPLES_PER_VOXEL)) + 1
         t = t_in[k] + (t_out[k] - t_in[k]) * np.arange(n) / max(n - 1, 1)
         brute[k] = nearest_voxels(padded, a[k] + t[:, None] * (b[k] - a[k])).any()
     assert 0.2 < fast.mean() < 0.8, fast.mean()

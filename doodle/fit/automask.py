@@ -225,10 +225,10 @@ def _voxel_hull(cams: list[Camera], masks: list[np.ndarray], pts: np.ndarray, n:
     return VoxelHull(keep.reshape([len(a) for a in axes]), lo + voxel / 2, voxel)
 
 
-def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], hull: VoxelHull,
-                        pixels: np.ndarray, samples: int = 64, neighbours: int = 8,
-                        core: VoxelHull | None = None) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Colour error ``(P,)`` of view ``k``'s ``pixels`` (``bool (H, W)``, P of them) at their best depth in the hull.
+def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], hull: VoxelHull, core: VoxelHull,
+                        pixels: np.ndarray, samples: int = 64, neighbours: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Colour errors ``(P,)`` of view ``k``'s ``pixels`` (``bool (H, W)``, P of them) at their best depth in the
+    hull and at their best depth in ``core`` (a hull inside ``hull``): ``(error, error in the core)``.
 
     Each pixel's ray is sampled at ``samples`` depths across the hull's bounding sphere; at each depth inside
     the hull the point is projected into the ``neighbours`` views looking most alike, and the mean absolute
@@ -237,8 +237,6 @@ def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], h
     surface in the hull shows that colour to the other views, high where the pixel sees past the object (a
     hole), and ``inf`` where the ray misses the hull. ``colours``: every view's image, ``float (H, W, 3)`` at
     its camera's size, best blurred a little (:func:`_colours`) so that a pixel of misregistration costs little.
-    With ``core`` (a hull inside ``hull``), also the same minimum over the depths inside ``core`` alone:
-    ``(error, error in the core)``.
     """
     cam = cams[k]
     v, u = np.nonzero(pixels)
@@ -255,7 +253,7 @@ def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], h
     half = max(1, len(nbrs) // 2)
     padded = np.pad(hull.occupied, 1)
     best_core = np.full(len(u), np.inf)
-    core_padded = None if core is None else np.pad(core.occupied, 1)
+    core_padded = np.pad(core.occupied, 1)
     for s in np.linspace(-r, r, samples):
         x = origin + d * (depth + s)[:, None]
         inside = nearest_voxels(padded, hull.coordinates(x))
@@ -269,11 +267,10 @@ def photo_inconsistency(k: int, cams: list[Camera], colours: list[np.ndarray], h
             err[ok, col] = np.abs(seen - colour_in[ok]).mean(axis=1)
         err = np.sort(err, axis=1)[:, :half].mean(axis=1)
         best[inside] = np.minimum(best[inside], err)
-        if core is not None:
-            in_core = nearest_voxels(core_padded, core.coordinates(x_in))
-            at = np.flatnonzero(inside)[in_core]
-            best_core[at] = np.minimum(best_core[at], err[in_core])
-    return best if core is None else (best, best_core)
+        in_core = nearest_voxels(core_padded, core.coordinates(x_in))
+        at = np.flatnonzero(inside)[in_core]
+        best_core[at] = np.minimum(best_core[at], err[in_core])
+    return best, best_core
 
 
 def _colours(image: np.ndarray) -> np.ndarray:
@@ -394,7 +391,7 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print) -> list[np.ndar
     for k, (cam, img, full, uv) in enumerate(zip(cams, images, scene.images, seen)):
         shadow = _hull_mask(cam, hull)
         error, error_core = np.zeros(shadow.shape), np.full(shadow.shape, np.inf)
-        error[shadow], error_core[shadow] = photo_inconsistency(k, cams, colours, search, shadow, core=core)
+        error[shadow], error_core[shadow] = photo_inconsistency(k, cams, colours, search, core, shadow)
         holes = _holes(error, shadow, uv)
         opened += int(holes.any())
         m = _final_cut(img, shadow, uv, holes, _surely_object(error, error_core, shadow, uv, holes))
