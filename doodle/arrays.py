@@ -8,7 +8,7 @@ process that only draws (export and animation workers) does not load torch or st
 from __future__ import annotations
 
 import sys
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -115,3 +115,32 @@ def nearest_voxels(padded: np.ndarray, coords: np.ndarray) -> np.ndarray:
     for axis in range(3):
         np.clip(ijk[..., axis], 0, padded.shape[axis] - 1, out=ijk[..., axis])
     return padded[ijk[..., 0], ijk[..., 1], ijk[..., 2]]
+
+
+def first_occupied(free: np.ndarray, at: Callable[[np.ndarray, np.ndarray], np.ndarray], reach: np.ndarray,
+                   n: np.ndarray) -> np.ndarray:
+    """Along each of ``R`` rays sampled at ``at(rows, j)`` (voxel coordinates ``(len(rows), 3)`` of sample
+    ``j`` of each ray in ``rows``, ``j = 0 … n[r] − 1``), the first sample whose nearest voxel is occupied,
+    ``(R,)``; ``-1`` where none is.
+
+    ``free``: the chessboard distance of every voxel of the grid padded with one empty voxel
+    (``ndimage.distance_transform_cdt(~np.pad(grid, 1), metric="chessboard")``; 0 on occupied voxels), read as
+    :func:`nearest_voxels` reads the padded grid. ``reach (R,)``: how far a ray moves along its steepest axis
+    from one sample to the next, in voxels. Empty space is skipped: where a sample's nearest voxel is ``k``
+    voxels from any occupied one, the next ``m`` samples with ``m · reach < k − 1`` have empty nearest voxels
+    too (rounding to the nearest voxel moves a point by less than one), so they are not looked at. The
+    answer is exactly that of testing every sample.
+    """
+    first = np.full(len(n), -1, np.intp)
+    rows = np.flatnonzero(n > 0)
+    j = np.zeros(len(rows), np.intp)
+    while len(rows):
+        k = nearest_voxels(free, at(rows, j))
+        hit = k == 0
+        first[rows[hit]] = j[hit]
+        # the largest m with m · reach < k − 1: samples j + 1 … j + m are empty too
+        skip = np.maximum(np.ceil((k - 1) / np.maximum(reach[rows], 1e-12)).astype(np.intp) - 1, 0)
+        j = j + skip + 1
+        go = ~hit & (j < n[rows])
+        rows, j = rows[go], j[go]
+    return first

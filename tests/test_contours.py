@@ -320,3 +320,24 @@ def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
         brute[k] = nearest_voxels(padded, a[k] + t[:, None] * (b[k] - a[k])).any()
     assert 0.2 < fast.mean() < 0.8, fast.mean()
     assert (fast == brute).all()
+
+
+def test_the_contour_march_finds_where_each_ray_first_enters_the_hull_as_stepping_every_voxel_does():
+    from doodle.arrays import first_occupied, nearest_voxels
+
+    rng = np.random.default_rng(11)
+    occupied = ndimage.binary_dilation(rng.random((30, 26, 22)) > 0.997, iterations=3)
+    occupied[4:25, 12, 5:9] = True  # a thin wall, grazed by some rays
+    free = ndimage.distance_transform_cdt(~np.pad(occupied, 1), metric="chessboard")
+    # rays in voxel coordinates (float32, as the contour code marches them), unit voxels per unit distance
+    c0 = rng.uniform(-15, 45, size=(2000, 3)).astype(np.float32)
+    target = rng.uniform(0, 30, size=(2000, 3))
+    cd = (target - c0) / np.linalg.norm(target - c0, axis=1, keepdims=True)
+    cd = cd.astype(np.float32)
+    coarse = np.arange(0.0, 90.0, 1.0).astype(np.float32)
+    first = first_occupied(free, lambda rows, j: c0[rows] + coarse[j][:, None] * cd[rows], np.abs(cd).max(axis=1),
+                           np.full(len(c0), len(coarse)))
+    inside = nearest_voxels(np.pad(occupied, 1), c0[:, None, :] + coarse[None, :, None] * cd[:, None, :])
+    brute = np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
+    assert 0.2 < (brute >= 0).mean() < 0.9, (brute >= 0).mean()
+    assert (first == brute).all()

@@ -82,39 +82,51 @@ def trace_ridges(ridges: RidgePoints, voxel: float, step_radius: float = 2.0, ga
     n = len(P)
     if n < 2:
         return []
-    tree = cKDTree(P)
     visited = np.zeros(n, bool)
     cos_max = np.cos(np.radians(max_angle_deg))
     cos_far = np.cos(np.radians(0.5 * max_angle_deg))
+    bonus = 0.5 * voxel * S / max(S.max(), 1e-12)  # stronger points are preferred, by up to half a voxel
+    near, far = step_radius * voxel, gap * voxel
+    # Every point's neighbours, once (a KD query per step was most of the time): a step looks as far as
+    # ``gap`` and absorbs within ``absorb`` of a segment at most ``gap`` long, so ``gap + absorb`` holds both.
+    pairs = cKDTree(P).query_pairs(far + absorb * voxel, output_type="ndarray")
+    ends = np.concatenate([pairs, pairs[:, ::-1]]) if len(pairs) else np.zeros((0, 2), int)
+    ends = ends[np.argsort(ends[:, 0], kind="stable")]
+    first = np.searchsorted(ends[:, 0], np.arange(n + 1))
+    neighbours = ends[:, 1]
+
+    def around(k: int) -> np.ndarray:
+        return neighbours[first[k]:first[k + 1]]
 
     def walk(start: int, direction: np.ndarray) -> list[int]:
         path, cur, d = [], start, direction
         while True:
             best = -1
-            for radius, cone in ((step_radius, cos_max), (gap, cos_far)):
-                idx = np.asarray(tree.query_ball_point(P[cur], radius * voxel), dtype=int)
-                idx = idx[~visited[idx]]
-                if len(idx) == 0:
-                    continue
+            idx = around(cur)
+            idx = idx[~visited[idx]]
+            if len(idx):
                 v = P[idx] - P[cur]
-                dist = np.linalg.norm(v, axis=1)
-                ok = dist > 0.3 * voxel
+                dist = np.sqrt(np.einsum("ij,ij->i", v, v))
+                ok = (dist > 0.3 * voxel) & (np.abs(T[idx] @ d) >= cos_max)
                 cos_step = np.where(ok, (v @ d) / np.maximum(dist, 1e-12), -1.0)
-                ok &= (cos_step >= cone) & (np.abs(T[idx] @ d) >= cos_max)
-                if ok.any():
-                    cost = np.where(ok, dist * (2.0 - cos_step) - 0.5 * voxel * S[idx] / max(S.max(), 1e-12), np.inf)
-                    best = int(idx[np.argmin(cost)])
-                    break
+                for reach, cone in ((near, cos_max), (far, cos_far)):  # near first; farther, a narrower cone
+                    fit = ok & (cos_step >= cone) & (dist <= reach)
+                    if fit.any():
+                        cost = np.where(fit, dist * (2.0 - cos_step) - bonus[idx], np.inf)
+                        best = int(idx[np.argmin(cost)])
+                        break
             if best < 0:
                 return path
             step = P[best] - P[cur]
+            length = float(np.sqrt(step @ step))
             # absorb the duplicates around the segment just walked
-            mid = 0.5 * (P[best] + P[cur])
-            visited[tree.query_ball_point(mid, absorb * voxel + 0.5 * np.linalg.norm(step))] = True
+            idx = around(cur)
+            w = P[idx] - (P[cur] + 0.5 * step)
+            visited[idx[np.einsum("ij,ij->i", w, w) <= (absorb * voxel + 0.5 * length) ** 2]] = True
             visited[best] = True
             t = T[best] if T[best] @ d >= 0 else -T[best]
-            d = t + step / max(np.linalg.norm(step), 1e-12)  # follow the ridge, steadied by the step taken
-            d /= max(np.linalg.norm(d), 1e-12)
+            d = t + step / max(length, 1e-12)  # follow the ridge, steadied by the step taken
+            d /= max(float(np.sqrt(d @ d)), 1e-12)
             path.append(best)
             cur = best
 
@@ -122,7 +134,9 @@ def trace_ridges(ridges: RidgePoints, voxel: float, step_radius: float = 2.0, ga
     for seed in np.argsort(-S):
         if visited[seed]:
             continue
-        visited[tree.query_ball_point(P[seed], absorb * voxel)] = True
+        idx = around(seed)
+        w = P[idx] - P[seed]
+        visited[idx[np.einsum("ij,ij->i", w, w) <= (absorb * voxel) ** 2]] = True
         visited[seed] = True
         ahead = walk(seed, T[seed])
         behind = walk(seed, -T[seed])

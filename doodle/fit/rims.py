@@ -26,7 +26,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from ..arrays import nearest_voxels
+from ..arrays import first_occupied
 from ..cameras import Camera
 from ..strokes.fitcurve import fit_cubics_many
 from .evidence import VoxelGrid
@@ -92,14 +92,14 @@ def _resample(xy: np.ndarray, closed: bool, spacing: float) -> np.ndarray:
     return np.stack([np.interp(at, arc, loop[:, 0]), np.interp(at, arc, loop[:, 1])], axis=1)
 
 
-def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, density: np.ndarray, near: float,
+def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, free: np.ndarray, density: np.ndarray, near: float,
             far: float, max_chord: float) -> np.ndarray:
     """Per pixel position, the distance along its ray ``(K,)`` to the middle of the first chord through the
     smoothed hull ``density`` (above one half; crossings interpolated linearly). NaN where the ray misses the
     hull, or where the chord is longer than ``max_chord`` (a face seen edge on: no one contour point).
 
-    A first pass steps a voxel at a time through the hull ``occupied`` (nearest voxel) to find where each ray
-    enters; the second samples the smoothed hull at half-voxel steps from just before there.
+    A first pass steps a voxel at a time through the hull (nearest voxel, skipping empty space by ``free``, the
+    chessboard distance to it, see :func:`~doodle.arrays.first_occupied`) to find where each ray enters; the second samples the smoothed hull at half-voxel steps from just before there.
     """
     h = grid.voxel
     origins, dirs = cam.rays_at(xy[:, 0], xy[:, 1])
@@ -110,9 +110,11 @@ def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, 
         return c0[:, None, :] + s[..., None].astype(np.float32) * cd[:, None, :]
 
     coarse = np.arange(near, far, h)
-    inside = nearest_voxels(np.pad(occupied, 1), coords(np.broadcast_to(coarse, (len(xy), len(coarse)))))
-    hit = inside.any(axis=1)
-    start = coarse[np.argmax(inside, axis=1)] - 2 * h
+    at = coarse.astype(np.float32)
+    first = first_occupied(free, lambda rows, j: c0[rows] + at[j][:, None] * cd[rows],
+                           np.abs(cd).max(axis=1) * h, np.full(len(xy), len(coarse)))
+    hit = first >= 0
+    start = coarse[np.maximum(first, 0)] - 2 * h
     s = start[:, None] + np.arange(0.0, max_chord + 4 * h, 0.5 * h)[None, :]  # (K, S)
     occ = ndimage.map_coordinates(density, coords(s).reshape(-1, 3).T, order=1, mode="constant", cval=0.0)
     occ = occ.reshape(s.shape) - 0.5
@@ -136,23 +138,29 @@ def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, 
     return depth
 
 
-def view_rims(cam: Camera, mask: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, density: np.ndarray,
+def view_rims(cam: Camera, mask: np.ndarray, grid: VoxelGrid, free: np.ndarray, density: np.ndarray,
               center: np.ndarray, radius: float, jump_voxels: float = 4.0, smooth: float = 1.5, inset: float = 1.5,
               max_chord_voxels: float = 40.0) -> list[tuple[np.ndarray, np.ndarray]]:
     """3D contour polylines of one view: ``(points (K, 3), normals (K, 3))`` per piece of its outline.
 
-    ``occupied``: the carved hull; ``density``: it smoothed by a voxel (float). Pieces are split where the
-    depth jumps by more than ``jump_voxels`` from one boundary point to the next (a part's outline passing
+    ``free``: the chessboard distance to the carved hull of every voxel of its grid padded by one (made once
+    for all views, see :func:`~doodle.arrays.first_occupied`); ``density``: the hull smoothed by a voxel.
+    Pieces are split where the depth jumps by more than ``jump_voxels`` from one boundary point to the next (a part's outline passing
     behind another's) and where no contour point is found (see :func:`_chords`).
     """
     h = grid.voxel
     dist = float(np.linalg.norm(cam.center - center))
     near, far = max(dist - 1.2 * radius, 1e-6), dist + 1.2 * radius
     out = []
-    for xy, normal2, tan2, closed in _boundary_rays(cam, mask):
-        # the chord is measured a little inside, where the smoothed hull is sure to be met; its middle lies
-        # at the depth of the contour point itself, on the boundary pixel's ray
-        depth = _chords(cam, xy - inset * normal2, grid, occupied, density, near, far, max_chord_voxels * h)
+    contours = _boundary_rays(cam, mask)
+    if not contours:
+        return out
+    # the chord is measured a little inside, where the smoothed hull is sure to be met; its middle lies at the
+    # depth of the contour point itself, on the boundary pixel's ray (all contours at once: one march)
+    depths = _chords(cam, np.concatenate([xy - inset * normal2 for xy, normal2, _, _ in contours]), grid, free,
+                     density, near, far, max_chord_voxels * h)
+    depths = np.split(depths, np.cumsum([len(c[0]) for c in contours])[:-1])
+    for (xy, normal2, tan2, closed), depth in zip(contours, depths):
         filled = np.isfinite(depth)
         if filled.sum() < 6:
             continue
@@ -213,8 +221,9 @@ def find_rims(cameras: list[Camera], masks: list[np.ndarray], grid: VoxelGrid, o
     from ..exporters.workers import cpu_count
 
     density = ndimage.gaussian_filter(occupied.astype(np.float32), 1.0)
+    free = ndimage.distance_transform_cdt(~np.pad(occupied, 1), metric="chessboard")
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:  # numpy and scipy release the GIL: threads, no fork
-        per_view = list(pool.map(lambda cm: view_rims(cm[0], cm[1], grid, occupied, density, center, radius),
+        per_view = list(pool.map(lambda cm: view_rims(cm[0], cm[1], grid, free, density, center, radius),
                                  zip(cameras, masks)))
     polys, normals, views = [], [], []
     for v, found in enumerate(per_view):
