@@ -148,6 +148,12 @@ min_piece_option = click.option(
          "[default: 0.01, DrawOptions.min_piece].")
 
 
+min_mark_option = click.option(
+    "--min-mark", type=float, default=None, callback=_share,
+    help="Leave out marks (a visible piece with every piece it touches) smaller than this share of the "
+         "object's size on screen: isolated ticks and dots; 0 keeps them [default: 0.02, DrawOptions.min_mark].")
+
+
 def view_options(f):
     """Options shared by every command that draws a stroke set: which cameras and how to draw."""
     opts = [
@@ -165,6 +171,7 @@ def view_options(f):
         click.option("--no-silhouettes", is_flag=True, help="Leave out superquadric silhouettes."),
         click.option("--no-curves", is_flag=True, help="Leave out the Bézier curves."),
         min_piece_option,
+        min_mark_option,
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -193,10 +200,10 @@ def _background(value: str | None) -> str | None:
 
 
 def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool = False, no_curves: bool = False,
-                  min_piece: float | None = None):
+                  min_piece: float | None = None, min_mark: float | None = None):
     from .exporters import DrawOptions
 
-    extra = {} if min_piece is None else {"min_piece": min_piece}
+    extra = {k: v for k, v in (("min_piece", min_piece), ("min_mark", min_mark)) if v is not None}
     return DrawOptions(tolerance=tolerance, hidden=hidden, curves=not no_curves, silhouettes=not no_silhouettes,
                        **extra)
 
@@ -216,7 +223,7 @@ def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool = False, n
 def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: bool, sheet: Path | None,
            background: str | None, style: str, no_filters: bool, views: int, scene_dir: Path | None, split: str, size,
            projection: str, tolerance: float, hidden: str | None, no_silhouettes: bool, no_curves: bool,
-           min_piece: float | None) -> None:
+           min_piece: float | None, min_mark: float | None) -> None:
     """Draw STROKES for orbit (or dataset) cameras as exact SVG paths, PNG, PDF and a contact sheet."""
     from .exporters import ExportOptions, export_cameras, export_views
     from .strokes import read_strokes
@@ -230,7 +237,7 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
     opts = ExportOptions(svg=svg, png=png, pdf=pdf, sheet=sheet, background=_background(background), style=st,
                          filters=not no_filters, source=str(strokes),
                          draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves,
-                                            min_piece))
+                                            min_piece, min_mark))
     with _progress(len(cams), "drawing") as bar:
         files = export_views(s, cams, out_dir, opts, progress=lambda k, n: bar.update(k - bar.n))
     views = [f for f in files if sheet is None or f != Path(sheet)]
@@ -254,10 +261,11 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
 @click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
               help="Parts behind the superquadric volume [default: the style's, else hide].")
 @min_piece_option
+@min_mark_option
 @style_options
 def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None, svg: Path | None, frames: int,
             fps: float, size: int, elevation: float | None, bob: float, hidden: str | None, style: str,
-            no_filters: bool, min_piece: float | None) -> None:
+            no_filters: bool, min_piece: float | None, min_mark: float | None) -> None:
     """Render a seamless turntable of STROKES as GIF, APNG, MP4 and/or animated SVG."""
     from .animate import AnimateOptions, animate_many
     from .strokes import read_strokes
@@ -270,7 +278,7 @@ def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None
     s = read_strokes(strokes)
     opt = AnimateOptions(frames=frames, fps=fps, size=size, style=load_style(style), elevation_deg=elevation,
                          bob_deg=bob, hidden=hidden or "", filters=not no_filters,
-                         draw=_draw_options(0.25, hidden or "", min_piece=min_piece))
+                         draw=_draw_options(0.25, hidden or "", min_piece=min_piece, min_mark=min_mark))
     with _progress(frames, "frames") as bar:
         written = animate_many(s, outputs, opt, progress=lambda k, n: bar.update(k - bar.n))
     click.echo("wrote " + ", ".join(str(p) for p in written))

@@ -111,14 +111,15 @@ class TestHiddenLines:
 
 
 class TestStubs:
-    """Pieces shorter than ``DrawOptions.min_piece`` of the object's on-screen size are dots: not drawn."""
+    """Pieces shorter than ``DrawOptions.min_piece`` of the object's on-screen size, and marks (pieces with all
+    that touch them) smaller than ``DrawOptions.min_mark``, are dots and ticks: not drawn."""
 
     def test_a_curve_seen_end_on_is_no_dot(self):
         cam = _camera([0, 4.0, 0.0])
         end_on = [[[0.05, 0.5, 0.0], [0.05, 0.2, 0.0], [0.05, -0.2, 0.0], [0.05, -0.5, 0.0]]]  # along the view
         size = on_screen_size(cam, SceneFrame(radius=1.0))
         assert 300 < size < 400  # 2 · f · r / distance, about
-        drawn = draw(_strokes(end_on), cam, DrawOptions(min_piece=0.0))
+        drawn = draw(_strokes(end_on), cam, DrawOptions(min_piece=0.0, min_mark=0.0))
         (piece,) = [sp for op in drawn.paths for sp in op.subpaths]
         assert 0 < piece_length(piece) < DrawOptions().min_piece * size  # a dot at the default
         assert not [op for op in draw(_strokes(end_on), cam).paths if op.subpaths]
@@ -142,16 +143,44 @@ class TestStubs:
         with pytest.raises(DoodleError, match="min_piece"):
             draw(_strokes([[[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0]]]), cam, DrawOptions(min_piece=-0.1))
 
+    def test_an_isolated_tick_is_left_out_but_short_pieces_that_make_a_line_or_a_corner_stay(self):
+        def line(a, b):
+            a, b = np.asarray(a, float), np.asarray(b, float)
+            return [a, a + (b - a) / 3, a + 2 * (b - a) / 3, b]
+
+        cam = _camera([0, 4.0, 0.0])
+        size = on_screen_size(cam, SceneFrame(radius=1.0))
+        short = 0.03  # world units: about 5 px, above min_piece's 1 % and under min_mark's 2 % of ~350 px
+        curves = [line([-0.6, 0, 0], [0.6, 0, 0]),  # 0: a long edge
+                  line([0.0, 0, 0.5], [short, 0, 0.5]),  # 1: a tick alone
+                  line([0.6, 0, 0], [0.6, 0, short])]  # 2: a short piece at the edge's end: a corner
+        curves += [line([-0.5 + k * short, 0, -0.5], [-0.5 + (k + 1) * short, 0, -0.5]) for k in range(4)]  # 3-6: a chain
+        s = _strokes(curves)
+        lengths = {op.id: piece_length(op.subpaths[0]) for op in draw(s, cam, DrawOptions(min_mark=0.0)).paths}
+        assert len(lengths) == 7
+        assert DrawOptions().min_piece * size < lengths["curve-001"] < DrawOptions().min_mark * size
+        kept = {op.id for op in draw(s, cam).paths}
+        assert kept == {f"curve-{k:03d}" for k in (0, 2, 3, 4, 5, 6)}
+        # the chain is one mark of 4 × 5 px: a threshold above its extent leaves it out whole
+        chain = _strokes(curves[3:])
+        assert not draw(chain, cam, DrawOptions(min_mark=5 * lengths["curve-003"] / size)).paths
+        assert len(draw(chain, cam, DrawOptions(min_mark=3 * lengths["curve-003"] / size)).paths) == 4
+        with pytest.raises(DoodleError, match="min_mark"):
+            draw(s, cam, DrawOptions(min_mark=1.0))
+
     def test_cli_min_piece(self, tmp_path):
         s = random_strokes(n_curves=6, n_sq=1)
         write_strokes(tmp_path / "s.doodle", s)
         ok = CliRunner().invoke(cli, ["export", str(tmp_path / "s.doodle"), "-o", str(tmp_path / "v"), "--views", "2",
-                                      "--min-piece", "0"])
+                                      "--min-piece", "0", "--min-mark", "0.05"])
         assert ok.exit_code == 0, ok.output
         bad = CliRunner().invoke(cli, ["export", str(tmp_path / "s.doodle"), "-o", str(tmp_path / "w"), "--views", "2",
                                        "--min-piece", "1.5"])
         assert bad.exit_code == 2 and "--min-piece" in bad.output and "[0, 1)" in bad.output
         assert not (tmp_path / "w").exists()
+        bad = CliRunner().invoke(cli, ["animate", str(tmp_path / "s.doodle"), "--gif", str(tmp_path / "a.gif"),
+                                       "--min-mark", "-1"])
+        assert bad.exit_code == 2 and "--min-mark" in bad.output and not (tmp_path / "a.gif").exists()
 
 
 def _reference(sq, cam):

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..cameras import Camera
 from ..errors import DoodleError
-from ..strokes.bezier import bezier_length, bezier_points
+from ..strokes.bezier import bernstein, bezier_length, bezier_points
 from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
@@ -40,6 +40,17 @@ class DrawOptions:
     """Visible pieces of a curve shorter than this share of the object's size on screen (the diameter of
     its bounding sphere there) are not drawn: a curve seen end-on, or a longer one that peeks out from behind
     a part, leaves a stub that reads as a dot or a tick."""
+    min_mark: float = 0.02
+    """A mark — a visible piece together with every piece that touches it (ends or sides within
+    :data:`TOUCH_PX`, in any layer but ``hidden``) — whose extent (its box's diagonal) is under this share of
+    the object's size on screen is not drawn: alone on the paper it reads as a tick or a dot, however exact.
+    Short pieces that continue a line or meet it at a corner are part of a larger mark and stay. The fit's own
+    measurements (which outlines and curves to draw) draw every mark: they weigh geometry, and a filter of the
+    look is applied to what they chose."""
+
+
+#: Pixels within which two visible pieces touch and make one mark (:attr:`DrawOptions.min_mark`).
+TOUCH_PX = 2.0
 
 
 @dataclass
@@ -100,6 +111,8 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
         raise DoodleError(f"hidden mode must be show, dash or hide, got {opt.hidden!r}")
     if not 0 <= opt.min_piece < 1:
         raise DoodleError(f"min_piece must be in [0, 1), got {opt.min_piece!r}")
+    if not 0 <= opt.min_mark < 1:
+        raise DoodleError(f"min_mark must be in [0, 1), got {opt.min_mark!r}")
     for camera in cameras:
         check_camera(strokes, camera)
     sq = strokes.superquadrics
@@ -118,7 +131,58 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
         for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near, volume,
                                                 strokes.frame)):
             mine.extend(ops)
+    if opt.min_mark > 0:
+        paths = [drop_small_marks(p, opt.min_mark * on_screen_size(c, strokes.frame)) for c, p in zip(cameras, paths)]
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
+
+
+def drop_small_marks(ops: list[PathOp], smallest: float, touch: float = TOUCH_PX) -> list[PathOp]:
+    """The paths of one view without the marks (pieces joined with all that touch them within ``touch`` px)
+    whose box diagonal is under ``smallest`` px; the ``hidden`` layer is left as it is (and touches nothing).
+    Paths left with no piece are dropped."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pieces = [(i, j) for i, op in enumerate(ops) if op.layer != "hidden" for j, sp in enumerate(op.subpaths) if len(sp)]
+    if smallest <= 0 or not pieces:
+        return ops
+    subpaths = [ops[i].subpaths[j] for i, j in pieces]
+    # a piece at least ``smallest`` from end to end is a large mark whatever touches it
+    chord = np.array([np.linalg.norm(sp[-1, 3] - sp[0, 0]) for sp in subpaths])
+    if (chord >= smallest).all():
+        return ops
+    # points about a pixel apart along every cubic, so that sides touching are found, not only ends
+    cubics = np.concatenate(subpaths)
+    owner = np.repeat(np.arange(len(pieces)), [len(sp) for sp in subpaths])
+    n = np.ceil(np.abs(np.diff(cubics, axis=1)).sum(axis=(1, 2))).astype(np.intp) + 2  # ≥ the polygon's length
+    seg = np.repeat(np.arange(len(cubics)), n)
+    t = np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n)
+    t = t / np.repeat(n - 1, n)
+    pts = np.einsum("pk,pkd->pd", bernstein(t), cubics[seg])
+    of = owner[seg]
+    first = np.searchsorted(of, np.arange(len(pieces)))  # the points are in order of their pieces
+    lo, hi = np.minimum.reduceat(pts, first), np.maximum.reduceat(pts, first)
+    # only the pieces that may be small need their touches
+    maybe = chord[of] < smallest
+    near = cKDTree(pts[maybe]).sparse_distance_matrix(cKDTree(pts), touch, output_type="ndarray")
+    a, c = of[np.flatnonzero(maybe)[near["i"]]], of[near["j"]]
+    _, mark = connected_components(coo_matrix((np.ones(len(a)), (a, c)), shape=(len(pieces),) * 2), directed=False)
+    mark_lo, mark_hi = np.full((mark.max() + 1, 2), np.inf), np.full((mark.max() + 1, 2), -np.inf)
+    np.minimum.at(mark_lo, mark, lo)
+    np.maximum.at(mark_hi, mark, hi)
+    small = np.linalg.norm(mark_hi - mark_lo, axis=1)[mark] < smallest
+    if not small.any():
+        return ops
+    drop = {pieces[k] for k in np.flatnonzero(small)}
+    out = []
+    for i, op in enumerate(ops):
+        keep = [j for j in range(len(op.subpaths)) if (i, j) not in drop]
+        if len(keep) == len(op.subpaths):
+            out.append(op)
+        elif keep:
+            out.append(PathOp(op.id, op.layer, [op.subpaths[j] for j in keep], [op.closed[j] for j in keep]))
+    return out
 
 
 def silhouette_hidden(points: np.ndarray, normals: np.ndarray, owner: np.ndarray, view: np.ndarray,

@@ -610,6 +610,6 @@ def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None
 
     cams = [cand.evidence.cameras[v] for v in cand.views]
     drawings = draw_many(StrokeSet(frame, CurveSet(), sq, occluder=occluder), cams,
-                         DrawOptions(curves=False, hidden="hide", tolerance=0.5))
+                         DrawOptions(curves=False, hidden="hide", tolerance=0.5, min_mark=0.0))
     pixels = [np.concatenate([op.points() for op in d.layer("silhouettes")] or [np.zeros((0, 2))]) for d in drawings]
     return cand.pixel_ids(pixels, reach)

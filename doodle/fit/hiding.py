@@ -53,7 +53,7 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
         return np.zeros(len(curves), bool)
     from ..exporters.drawing import DrawOptions, draw_many
 
-    opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5)
+    opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
     drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder), cameras, opts)
     facing = raster_layer(drawings, cameras, "curves", _curve_owner)
     # the curves again without normals; the outlines are the same, so they are not drawn twice

@@ -82,7 +82,7 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
     """
     from ..exporters.drawing import DrawOptions, draw_many
 
-    drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
+    drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0))
     ink = on = rim = reached = 0
     for k, (cam, d, lm, m) in enumerate(zip(cameras, drawings, lines, masks)):
         ops = [*d.layer("curves"), *d.layer("silhouettes")]
@@ -110,7 +110,8 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
     # gives each one's outline as drawn alone.
     every = replace(sq, outline=np.ones(len(sq), bool))
     drawings = draw_many(StrokeSet(frame, CurveSet(), every, occluder=occluder), cameras,
-                         DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
+                         DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5,
+                                     min_mark=0.0))
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
     for cam, per, lm, m in zip(cameras, raster_layer(drawings, cameras, "silhouettes", _silhouette_owner),
                                lines, masks):
