@@ -117,15 +117,23 @@ def nearest_voxels(padded: np.ndarray, coords: np.ndarray) -> np.ndarray:
     return padded[ijk[..., 0], ijk[..., 1], ijk[..., 2]]
 
 
+def free_space(occupied: np.ndarray) -> np.ndarray:
+    """The chessboard distance of every voxel of ``occupied`` padded with one empty voxel on every side to the
+    nearest occupied voxel (0 on them), as :func:`first_occupied` reads it: the padding is where every
+    coordinate outside the grid lands (as in :func:`nearest_voxels`)."""
+    from scipy import ndimage
+
+    return ndimage.distance_transform_cdt(~np.pad(occupied, 1), metric="chessboard")
+
+
 def first_occupied(free: np.ndarray, at: Callable[[np.ndarray, np.ndarray], np.ndarray], reach: np.ndarray,
                    n: np.ndarray) -> np.ndarray:
     """Along each of ``R`` rays sampled at ``at(rows, j)`` (voxel coordinates ``(len(rows), 3)`` of sample
     ``j`` of each ray in ``rows``, ``j = 0 … n[r] − 1``), the first sample whose nearest voxel is occupied,
     ``(R,)``; ``-1`` where none is.
 
-    ``free``: the chessboard distance of every voxel of the grid padded with one empty voxel
-    (``ndimage.distance_transform_cdt(~np.pad(grid, 1), metric="chessboard")``; 0 on occupied voxels), read as
-    :func:`nearest_voxels` reads the padded grid. ``reach (R,)``: how far a ray moves along its steepest axis
+    ``free``: :func:`free_space` of the grid, read as :func:`nearest_voxels` reads the padded grid.
+    ``reach (R,)``: how far a ray moves along its steepest axis
     from one sample to the next, in voxels. Empty space is skipped: where a sample's nearest voxel is ``k``
     voxels from any occupied one, the next ``m`` samples with ``m · reach < k − 1`` have empty nearest voxels
     too (rounding to the nearest voxel moves a point by less than one), so they are not looked at. The

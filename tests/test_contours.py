@@ -323,12 +323,12 @@ def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
 
 
 def test_the_contour_march_finds_where_each_ray_first_enters_the_hull_as_stepping_every_voxel_does():
-    from doodle.arrays import first_occupied, nearest_voxels
+    from doodle.arrays import first_occupied, free_space, nearest_voxels
 
     rng = np.random.default_rng(11)
     occupied = ndimage.binary_dilation(rng.random((30, 26, 22)) > 0.997, iterations=3)
     occupied[4:25, 12, 5:9] = True  # a thin wall, grazed by some rays
-    free = ndimage.distance_transform_cdt(~np.pad(occupied, 1), metric="chessboard")
+    free = free_space(occupied)
     # rays in voxel coordinates (float32, as the contour code marches them), unit voxels per unit distance
     c0 = rng.uniform(-15, 45, size=(2000, 3)).astype(np.float32)
     target = rng.uniform(0, 30, size=(2000, 3))

@@ -154,7 +154,8 @@ class TestStubs:
         curves = [line([-0.6, 0, 0], [0.6, 0, 0]),  # 0: a long edge
                   line([0.0, 0, 0.5], [short, 0, 0.5]),  # 1: a tick alone
                   line([0.6, 0, 0], [0.6, 0, short])]  # 2: a short piece at the edge's end: a corner
-        curves += [line([-0.5 + k * short, 0, -0.5], [-0.5 + (k + 1) * short, 0, -0.5]) for k in range(4)]  # 3-6: a chain
+        # 3-6: a chain of four short pieces end to end
+        curves += [line([-0.5 + k * short, 0, -0.5], [-0.5 + (k + 1) * short, 0, -0.5]) for k in range(4)]
         s = _strokes(curves)
         lengths = {op.id: piece_length(op.subpaths[0]) for op in draw(s, cam, DrawOptions(min_mark=0.0)).paths}
         assert len(lengths) == 7

@@ -9,9 +9,8 @@ are sampled, and only inside the box, so cost scales with the rays that actually
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
-from ..arrays import first_occupied
+from ..arrays import first_occupied, free_space
 from ..cameras import Camera
 from ..strokes.model import Occluder, SuperquadricSet
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
@@ -132,8 +131,7 @@ def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder) -> n
     t_in, t_out = np.clip(t_in, 0, 1), np.clip(t_out, 0, 1)
     length = np.linalg.norm(b - a, axis=1)
     ray = np.flatnonzero((t_out > t_in) & (length > 0))
-    # the chessboard distance of every voxel (the grid padded with one empty voxel) to an occupied one
-    free = ndimage.distance_transform_cdt(~np.pad(volume.occupied, 1), metric="chessboard")
+    free = free_space(volume.occupied)
     start, step = a[ray] + t_in[ray, None] * (b - a)[ray], (t_out - t_in)[ray, None] * (b - a)[ray]
     n = np.ceil((t_out - t_in)[ray] * length[ray] * SAMPLES_PER_VOXEL).astype(np.intp) + 1  # samples 0 … n − 1
     step /= np.maximum(n - 1, 1)[:, None]

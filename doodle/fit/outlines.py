@@ -82,7 +82,8 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
     """
     from ..exporters.drawing import DrawOptions, draw_many
 
-    drawings = draw_many(strokes, cameras, DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0))
+    drawings = draw_many(strokes, cameras,
+                         DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0))
     ink = on = rim = reached = 0
     for k, (cam, d, lm, m) in enumerate(zip(cameras, drawings, lines, masks)):
         ops = [*d.layer("curves"), *d.layer("silhouettes")]

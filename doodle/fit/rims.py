@@ -26,7 +26,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from ..arrays import first_occupied
+from ..arrays import first_occupied, free_space
 from ..cameras import Camera
 from ..strokes.fitcurve import fit_cubics_many
 from .evidence import VoxelGrid
@@ -98,8 +98,9 @@ def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, free: np.ndarray, dens
     smoothed hull ``density`` (above one half; crossings interpolated linearly). NaN where the ray misses the
     hull, or where the chord is longer than ``max_chord`` (a face seen edge on: no one contour point).
 
-    A first pass steps a voxel at a time through the hull (nearest voxel, skipping empty space by ``free``, the
-    chessboard distance to it, see :func:`~doodle.arrays.first_occupied`) to find where each ray enters; the second samples the smoothed hull at half-voxel steps from just before there.
+    A first pass steps a voxel at a time through the hull (nearest voxel, skipping empty space by ``free``, its
+    :func:`~doodle.arrays.free_space`) to find where each ray enters; the second samples the smoothed hull at
+    half-voxel steps from just before there.
     """
     h = grid.voxel
     origins, dirs = cam.rays_at(xy[:, 0], xy[:, 1])
@@ -143,10 +144,10 @@ def view_rims(cam: Camera, mask: np.ndarray, grid: VoxelGrid, free: np.ndarray, 
               max_chord_voxels: float = 40.0) -> list[tuple[np.ndarray, np.ndarray]]:
     """3D contour polylines of one view: ``(points (K, 3), normals (K, 3))`` per piece of its outline.
 
-    ``free``: the chessboard distance to the carved hull of every voxel of its grid padded by one (made once
-    for all views, see :func:`~doodle.arrays.first_occupied`); ``density``: the hull smoothed by a voxel.
-    Pieces are split where the depth jumps by more than ``jump_voxels`` from one boundary point to the next (a part's outline passing
-    behind another's) and where no contour point is found (see :func:`_chords`).
+    ``free``: :func:`~doodle.arrays.free_space` of the carved hull (made once for all views); ``density``: the
+    hull smoothed by a voxel. Pieces are split where the depth jumps by more than ``jump_voxels`` from one
+    boundary point to the next (a part's outline passing behind another's) and where no contour point is found
+    (see :func:`_chords`).
     """
     h = grid.voxel
     dist = float(np.linalg.norm(cam.center - center))
@@ -221,7 +222,7 @@ def find_rims(cameras: list[Camera], masks: list[np.ndarray], grid: VoxelGrid, o
     from ..exporters.workers import cpu_count
 
     density = ndimage.gaussian_filter(occupied.astype(np.float32), 1.0)
-    free = ndimage.distance_transform_cdt(~np.pad(occupied, 1), metric="chessboard")
+    free = free_space(occupied)
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:  # numpy and scipy release the GIL: threads, no fork
         per_view = list(pool.map(lambda cm: view_rims(cm[0], cm[1], grid, free, density, center, radius),
                                  zip(cameras, masks)))
