@@ -1,4 +1,5 @@
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -209,6 +210,28 @@ class TestCheckpoints:
         # the feature curves' normals are settled after the fit (the hiding check), the contour curves' are traced
         rims = first.gates > 0
         assert np.array_equal(done.gates, first.gates) and np.allclose(done.normals[rims], first.normals[rims])
+
+    def test_resume_keeps_the_occluder_the_views_see_through(self, snowman_dir, tmp_path, monkeypatch):
+        """The hull the views see through (:mod:`doodle.fit.sightlines`) is cleared from the occluder once, in
+        discovery; a resumed fit reads that occluder from the checkpoint."""
+        from doodle.fit import discover
+
+        def top_half(controls, ev, **kw):  # a deterministic stand-in that clears a lot
+            free = ev.occupied.copy()
+            free[:, :, : free.shape[2] // 2] = False
+            return free
+
+        scene = load_scene(snowman_dir)
+        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        ckpt = tmp_path / "s.ckpt"
+        self._interrupting(monkeypatch, 10)
+        monkeypatch.setattr(discover, "seen_through", top_half)
+        first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.occluder
+        monkeypatch.undo()
+        plain = fit(scene, replace(cfg, iterations=0), progress=False, log=lambda m: None).strokes.occluder
+        assert plain.occupied.sum() > first.occupied.sum() > 0
+        done = fit(scene, cfg, checkpoint=ckpt, resume=True, progress=False, log=lambda m: None).strokes.occluder
+        assert np.array_equal(done.occupied, first.occupied)
 
     def test_resume_keeps_which_outlines_are_drawn_and_where(self, tripod_dir, tmp_path, monkeypatch):
         """Interrupted in the curve stage after the superquadrics are settled, a fit resumes with the same

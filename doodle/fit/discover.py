@@ -16,7 +16,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -29,10 +29,11 @@ from ..arrays import spread_indices
 from ..scenes import Scene
 from ..strokes.bezier import bezier_points
 from ..strokes.fitcurve import fit_cubics_many
-from .evidence import Evidence, _project, edge_evidence
+from .evidence import Evidence, _project, depth_maps, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, find_rims
+from .sightlines import seen_through
 from .texture import on_smooth_faces
 
 
@@ -489,6 +490,12 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)
     smooth = on_smooth_faces(controls, ev.grid, ev.occupied) if texture else None
     seconds["curves"] = time.perf_counter() - t
+    t = time.perf_counter()
+    # where the views see feature curves inside the hull, they see through it: its depth maps leave that out
+    boundaries = [m ^ ndimage.binary_erosion(m) for m in scene.masks]
+    free = seen_through(controls, ev, outlines=boundaries)
+    ev = replace(ev, free=free, depth=depth_maps(ev.grid, ev.occupied & ~free, ev.cameras) if free.any() else ev.depth)
+    seconds["sight lines"] = time.perf_counter() - t
     n_rims = 0
     if contours:
         t = time.perf_counter()
@@ -508,7 +515,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     t = time.perf_counter()
     views = list(spread_indices(len(ev.cameras), max_views))
     total = int(sum(ev.lines[v].sum() for v in views))
-    outlines = {v: scene.masks[v] ^ ndimage.binary_erosion(scene.masks[v]) for v in views}
+    outlines = {v: boundaries[v] for v in views}
     covers, off, _ = stroke_coverage(controls, ev, views, gates=gates, contour_normals=normals, source=source,
                                      outlines=outlines, outline_reach=outline_reach) \
         if len(controls) else ([], np.zeros(0), None)
@@ -519,7 +526,9 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
         f"cubics" + (f" ({int(smooth.sum())} on smooth faces: outline only)" if smooth is not None else "")
         + (f" + {n_rims // k} contour cubics (each offered {k} ways)" if contours else "") +
         f" (evidence {seconds['evidence']:.1f} s, "
-        f"curves {seconds['curves']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")")
+        f"curves {seconds['curves']:.1f} s, sight lines {seconds['sight lines']:.1f} s"
+        + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")"
+        + (f"; the views see through {free.sum() / max(ev.occupied.sum(), 1):.0%} of the hull" if free.any() else ""))
     return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds,
                       gates, normals, source, smooth)
 

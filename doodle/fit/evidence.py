@@ -93,7 +93,8 @@ class Evidence:
 
     ``score`` is the vote (0 where nothing was voted), ``occupied`` the carved hull, ``seen`` the number of
     views that see each candidate voxel, ``lines`` the per-view line maps and ``depth`` the hull's per-view
-    depth maps (``inf`` where the hull is not), both at the evidence image size.
+    depth maps (``inf`` where the hull is not), both at the evidence image size. ``free``: the hull voxels
+    the views see through (:mod:`.sightlines`; ``None`` until judged), which ``depth`` then leaves out.
     """
 
     grid: VoxelGrid
@@ -104,6 +105,7 @@ class Evidence:
     lines: list[np.ndarray]
     depth: list[np.ndarray]
     margin: float
+    free: np.ndarray | None = None
 
 
 def thin_parts(mask: np.ndarray, thin: float = 0.06, inside: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -363,8 +365,12 @@ def depth_maps(grid: VoxelGrid, occupied: np.ndarray, cameras: list[Camera]) -> 
         zbuf = np.full(cam.height * cam.width, np.inf, np.float32)
         np.minimum.at(zbuf, v[ok] * cam.width + u[ok], z[ok])
         zbuf = zbuf.reshape(cam.height, cam.width)
-        holes = ~np.isfinite(zbuf)
-        zbuf[holes] = ndimage.minimum_filter(zbuf, size=3)[holes]
+        if ok.any():  # the filling, on the hull's box grown by 2 px (beyond it every pixel stays inf): 3x faster
+            box = (slice(max(int(v[ok].min()) - 2, 0), int(v[ok].max()) + 3),
+                   slice(max(int(u[ok].min()) - 2, 0), int(u[ok].max()) + 3))
+            crop = zbuf[box]
+            holes = ~np.isfinite(crop)
+            crop[holes] = ndimage.minimum_filter(crop, size=3)[holes]
         out.append(zbuf)
     return out
 

@@ -379,11 +379,18 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             normals = np.asarray(ck["discovered"]["normals"].numpy(), dtype=np.float64)
             contour = np.asarray(ck["discovered"]["contour"].numpy(), dtype=np.float64)
             outline = float(ck["discovered"]["outline"])
+            seen = ck["discovered"].get("occluder")
+            if occluder is not None and seen is not None and tuple(seen.shape) == occluder.occupied.shape:
+                occluder = replace(occluder, occupied=seen.numpy().astype(bool))  # as cleared by the sight lines
         else:
             from .discover import choose_curves, find_candidates
 
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
                                          contours=cfg.contours, texture=cfg.texture, log=say)
+            if occluder is not None and candidates.evidence.free is not None:
+                from .volume import clear_seen
+
+                occluder = clear_seen(occluder, candidates.evidence.grid, candidates.evidence.free)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
             strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
             start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline
@@ -471,7 +478,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                  f32(final_sq.drawn), f32(final_sq.drawn_cells)],
                 "discovered": None if not discovering else
                 {"control_points": f32(start), "normals": f32(normals), "contour": f32(contour),
-                 "outline": float(outline)},
+                 "outline": float(outline),
+                 "occluder": None if occluder is None else torch.from_numpy(occluder.occupied.copy())},
             })
         return save
 

@@ -11,7 +11,7 @@ above, where its mask is a wide region.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
@@ -85,6 +85,21 @@ def hull_occluder(scene: Scene, max_voxels: int = OCCLUDER_VOXELS) -> Occluder:
     # A voxel in: the hull fills concavities no view looks into (beside Lego's tracks, on its plate), where
     # visible edges lie inside it; shrunk, it hides them less (Lego held-out recall 0.77 → 0.80).
     return Occluder(grid.origin.copy(), float(grid.voxel), grid.axes.copy(), ndimage.binary_erosion(occupied))
+
+
+def clear_seen(occluder: Occluder, grid: VoxelGrid, free: np.ndarray) -> Occluder:
+    """The occluder without the voxels whose centres fall in voxels of ``grid`` marked ``free`` (the hull the views
+    see through, :mod:`.sightlines`): what the training views show must not be hidden in the drawings."""
+    ijk = np.argwhere(occluder.occupied)
+    if not len(ijk) or not free.any():
+        return occluder
+    fine = grid.index(occluder.origin + (ijk * occluder.voxel) @ occluder.axes)
+    inside = np.all((fine >= 0) & (fine < np.array(free.shape)), axis=1)
+    seen = np.zeros(len(ijk), bool)
+    seen[inside] = free[tuple(fine[inside].T)]
+    occupied = occluder.occupied.copy()
+    occupied[tuple(ijk[seen].T)] = False
+    return replace(occluder, occupied=occupied)
 
 
 def _splat(cam, pts: np.ndarray, grid: VoxelGrid) -> np.ndarray:
