@@ -336,9 +336,13 @@ def _log(msg: str) -> None:
 @click.option("--discover/--no-discover", default=True, show_default=True,
               help="Find curves from multi-view edge evidence (needs masks); --no-discover: the distance-field fit.")
 @click.option("--contours/--no-contours", default=True, show_default=True,
-              help="Contour curves: the training views' outlines traced into 3D, drawn where a view grazes them.")
+              help="With --no-outline-hull: contour curves, the training views' outlines traced into 3D, drawn where "
+                   "a view grazes them.")
 @click.option("--occluder/--no-occluder", default=True, show_default=True,
               help="Store the visual hull in the stroke file, to hide what lies behind the object's bulk.")
+@click.option("--outline-hull/--no-outline-hull", default=True, show_default=True,
+              help="Store the fine visual hull in the stroke file: every view draws its outline where the curves "
+                   "leave it undrawn.")
 @click.option("--evidence-size", type=int, default=512, show_default=True,
               help="Image size (larger side, px) for the 3D edge evidence.")
 @click.option("--evidence-voxels", type=int, default=192, show_default=True,
@@ -363,7 +367,7 @@ def _log(msg: str) -> None:
               help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
                    "(auto); none; or a folder with NAME.png per view.")
 def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discover: bool, contours: bool,
-        occluder: bool, evidence_size: int,
+        occluder: bool, outline_hull: bool, evidence_size: int,
         evidence_voxels: int, iterations: int | None, sq_iterations: int, size: int, views_per_step: int, seed: int,
         device: str, split: str, init: str, objective: str, preview_dir: Path | None, preview_every: int,
         checkpoint_every: int, resume: bool, masks: str) -> None:
@@ -377,7 +381,7 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
     from .strokes import write_strokes
 
     cfg = FitConfig(curves=curves, superquadrics=superquadrics, discover=discover, contours=contours,
-                    occluder=occluder, evidence_size=evidence_size,
+                    occluder=occluder, outline_hull=outline_hull, evidence_size=evidence_size,
                     evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
                     size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
                     init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))

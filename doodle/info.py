@@ -22,9 +22,9 @@ def describe(path: str | Path) -> dict[str, Any]:
         "superquadrics": len(sq),
         "outlines_drawn": int(sq.drawn.sum()),
         "outline_cells_left_out": int((~sq.drawn_cells[sq.drawn]).sum()),
-        "occluder": None if strokes.occluder is None else {
-            "shape": [int(v) for v in strokes.occluder.occupied.shape], "voxel": round(float(strokes.occluder.voxel), 6),
-            "occupied": int(strokes.occluder.occupied.sum())},
+        **{name: None if vol is None else {"shape": [int(v) for v in vol.occupied.shape], "voxel": round(float(vol.voxel), 6),
+                                           "occupied": int(vol.occupied.sum())}
+           for name, vol in (("occluder", strokes.occluder), ("hull", strokes.hull))},
         "bounding_box": {"min": [round(float(v), 4) for v in lo], "max": [round(float(v), 4) for v in hi]},
         "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes))},
         "scene": {"up": [round(float(v), 4) for v in f.up], "center": [round(float(v), 4) for v in f.center],
@@ -43,9 +43,10 @@ def format_description(info: dict[str, Any]) -> str:
         f"  superquadrics   {info['superquadrics']} ({info['outlines_drawn']} outlines drawn"
         + (f", {info['outline_cells_left_out']} of their surface cells left out" if info["outline_cells_left_out"] else "")
         + ")",
-        *([] if info["occluder"] is None else [
-            f"  occluder        {'×'.join(map(str, info['occluder']['shape']))} voxels of {info['occluder']['voxel']:g} "
-            f"({info['occluder']['occupied']} occupied): hides what lies behind the object's bulk"]),
+        *[f"  {name:<15} {'×'.join(map(str, v['shape']))} voxels of {v['voxel']:g} ({v['occupied']} occupied): {role}"
+          for name, role in (("occluder", "hides what lies behind the object's bulk"),
+                             ("hull", "every view draws its outline where the curves leave it undrawn"))
+          if (v := info.get(name)) is not None],
         f"  bounding box    {bb['min']} .. {bb['max']}",
         f"  scene           center {info['scene']['center']}, radius {info['scene']['radius']}, up {info['scene']['up']}",
         f"  size            {info['bytes']['file']} B on disk; JSON {info['bytes']['json']} B, binary {info['bytes']['binary']} B",

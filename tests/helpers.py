@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
-from doodle.strokes.model import Occluder
+from doodle.strokes.model import Voxels
 from doodle.strokes.superquadric import matrix_to_quaternion
 
 
@@ -22,7 +22,7 @@ def random_strokes(seed: int = 0, n_curves: int = 32, n_sq: int = 8, radius: flo
         curves = CurveSet(curves.control_points, 1.5, n / np.linalg.norm(n, axis=-1, keepdims=True),
                           rng.choice([0.0, 0.15, 0.3], n_curves))
         axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-        occluder = Occluder(rng.uniform(-radius, 0, 3), radius / 8, axes, rng.random((6, 5, 4)) > 0.4)
+        occluder = Voxels(rng.uniform(-radius, 0, 3), radius / 8, axes, rng.random((6, 5, 4)) > 0.4)
     return StrokeSet(
         SceneFrame(radius=radius),
         curves,

@@ -62,6 +62,20 @@ def test_info_counts_drawn_outlines_and_cells_left_out(runner, tmp_path):
     assert "superquadrics   3 (2 outlines drawn, 32 of their surface cells left out)" in r.output, r.output
 
 
+def test_info_describes_the_voxel_volumes(runner, tmp_path):
+    from doodle.strokes.model import Voxels
+
+    s = random_strokes()
+    s.hull = Voxels(np.zeros(3), 0.05, np.eye(3), np.ones((4, 5, 6), bool))
+    p = tmp_path / "s.doodle"
+    write_strokes(p, s)
+    r = runner.invoke(cli, ["info", str(p)])
+    assert "hull            4×5×6 voxels of 0.05 (120 occupied): every view draws its outline" in r.output, r.output
+    assert "occluder" not in r.output
+    d = json.loads(runner.invoke(cli, ["info", "--json", str(p)]).output)
+    assert d["hull"] == {"shape": [4, 5, 6], "voxel": 0.05, "occupied": 120} and d["occluder"] is None
+
+
 def test_info_corrupt_file_one_line_exit_2(runner, tmp_path):
     p = tmp_path / "bad.doodle"
     p.write_text('{"format": "doodle-strokes", "version": 1, "scene": {"up": [0, 0, "x"]}}')

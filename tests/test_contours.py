@@ -203,12 +203,12 @@ def test_a_contour_curve_is_not_counted_in_its_own_view(ball_rims):
 
 # The occluder volume: the visual hull on a coarse grid, hiding what lies behind the object's bulk.
 
-def _box_occluder(lo, hi, voxel=0.05) -> "Occluder":
-    from doodle.strokes.model import Occluder
+def _box_occluder(lo, hi, voxel=0.05) -> "Voxels":
+    from doodle.strokes.model import Voxels
 
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     shape = tuple(int(v) for v in np.ceil((hi - lo) / voxel) + 1)
-    return Occluder(lo, voxel, np.eye(3), np.ones(shape, bool))
+    return Voxels(lo, voxel, np.eye(3), np.ones(shape, bool))
 
 
 def test_an_occluder_volume_hides_what_is_behind_it_and_not_its_own_surface():
@@ -248,10 +248,10 @@ def test_occluder_volumes_survive_both_file_encodings_and_bad_ones_are_refused()
     import json
 
     from doodle.errors import StrokeFileError
-    from doodle.strokes.model import Occluder
+    from doodle.strokes.model import Voxels
 
     rng = np.random.default_rng(0)
-    occ = Occluder(np.array([0.1, -0.2, 0.3]), 0.04, np.array([[0, 1.0, 0], [-1.0, 0, 0], [0, 0, 1.0]]),
+    occ = Voxels(np.array([0.1, -0.2, 0.3]), 0.04, np.array([[0, 1.0, 0], [-1.0, 0, 0], [0, 0, 1.0]]),
                    rng.random((7, 5, 9)) > 0.5)
     s = StrokeSet(FRAME, occluder=occ)
     for back in (loads(dumps(s)), decode(encode(s))):
@@ -296,14 +296,14 @@ def test_an_outline_reach_explains_an_outline_a_few_pixels_off(ball_rims):
 def test_skipping_empty_space_gives_the_answer_of_testing_every_half_voxel():
     from doodle.arrays import nearest_voxels
     from doodle.exporters.visibility import SAMPLES_PER_VOXEL, _slab, volume_blocked
-    from doodle.strokes.model import Occluder
+    from doodle.strokes.model import Voxels
 
     rng = np.random.default_rng(5)
     # scattered blobs with holes and thin walls: segments graze, pass beside and cross them
     occupied = ndimage.binary_dilation(rng.random((24, 20, 16)) > 0.995, iterations=2)
     occupied[5:18, 10, 3:12] = True
     axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-    vol = Occluder(np.array([-1.0, -0.8, -0.6]), 0.08, axes, occupied)
+    vol = Voxels(np.array([-1.0, -0.8, -0.6]), 0.08, axes, occupied)
     ends = rng.uniform(-2, np.array(occupied.shape) + 1, size=(3000, 3))  # in voxels, some outside the grid
     e = vol.origin + ends * vol.voxel @ axes
     o = e + rng.normal(size=(3000, 3)) * 3.0

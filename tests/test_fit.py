@@ -145,6 +145,18 @@ class TestShortFits:
         p, r = edge_scores(s.curves.control_points, gt, 0.04 * load_scene(chair_dir).frame.radius)
         assert p > 0.7 and r > 0.6, (p, r)
 
+    def test_the_evidence_hull_draws_the_held_out_outlines(self, chair_dir):
+        """The fit stores the evidence's hull, and its outline draws the held-out views' outlines, which the
+        curves alone leave in gaps; there are no contour curves beside it."""
+        cfg = FitConfig(superquadrics=0, **QUICK)
+        s = fit(load_scene(chair_dir), cfg, progress=False, log=lambda m: None).strokes
+        assert s.hull is not None and s.hull.occupied.any() and not (s.curves.gates > 0).any()
+        test = load_scene(chair_dir, split="test")
+        with_hull = evaluate(s, test, size=128)
+        without = evaluate(replace(s, hull=None), test, size=128)
+        assert with_hull["silhouette_recall"] > max(0.95, without["silhouette_recall"] + 0.03), (with_hull, without)
+        assert with_hull["line_precision"] > without["line_precision"] - 0.02
+
     def test_auto_grows_superquadrics_for_a_smooth_object(self, snowman_dir):
         logs = []
         res = fit(load_scene(snowman_dir), FitConfig(curves=0, sq_iterations=60, **QUICK), progress=False, log=logs.append)
@@ -156,6 +168,7 @@ class TestShortFits:
         logs = []
         res = fit(scene, FitConfig(curves=4, superquadrics=2, iterations=10, **QUICK), progress=False, log=logs.append)
         assert len(res.strokes.superquadrics) == 0 and any("no masks" in m for m in logs)
+        assert res.strokes.hull is None and res.strokes.occluder is None  # both are carved from masks
         assert any("bounding box" in m for m in logs)
 
 
@@ -200,7 +213,7 @@ class TestCheckpoints:
     def test_resume_keeps_the_contour_curves(self, snowman_dir, tmp_path, monkeypatch):
         """Discovery is not repeated on resume: the contour curves and their gates come from the checkpoint."""
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        cfg = FitConfig(superquadrics=0, iterations=30, outline_hull=False, **QUICK)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.curves
@@ -210,6 +223,19 @@ class TestCheckpoints:
         # the feature curves' normals are settled after the fit (the hiding check), the contour curves' are traced
         rims = first.gates > 0
         assert np.array_equal(done.gates, first.gates) and np.allclose(done.normals[rims], first.normals[rims])
+
+    def test_resume_keeps_the_hull(self, snowman_dir, tmp_path, monkeypatch):
+        """The hull whose outline is drawn is the evidence's: a resumed fit reads it from the checkpoint."""
+        scene = load_scene(snowman_dir)
+        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        ckpt = tmp_path / "s.ckpt"
+        self._interrupting(monkeypatch, 10)
+        first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.hull
+        assert first is not None and first.occupied.any()
+        monkeypatch.undo()
+        done = fit(scene, cfg, checkpoint=ckpt, resume=True, progress=False, log=lambda m: None).strokes.hull
+        assert np.array_equal(done.occupied, first.occupied) and np.allclose(done.origin, first.origin)
+        assert done.voxel == first.voxel and np.allclose(done.axes, first.axes)
 
     def test_resume_keeps_the_occluder_the_views_see_through(self, snowman_dir, tmp_path, monkeypatch):
         """The hull the views see through (:mod:`doodle.fit.sightlines`) is cleared from the occluder once, in
@@ -241,7 +267,8 @@ class TestCheckpoints:
         scene = load_scene(tripod_dir)
         # without contour curves the head is drawn by its superquadric; without the hull occluder the others
         # stay to hide what is behind them, undrawn
-        cfg = FitConfig(iterations=30, sq_iterations=40, contours=False, occluder=False, **{**QUICK, "size": 128})
+        cfg = FitConfig(iterations=30, sq_iterations=40, contours=False, occluder=False, outline_hull=False,
+                        **{**QUICK, "size": 128})
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.superquadrics
@@ -319,16 +346,17 @@ class TestCli:
         assert r.exit_code == 0, r.output
         assert "line precision" in r.output and json.loads((tmp_path / "m.json").read_text())["views"] == 4
 
-    def test_contours_and_occluder_can_be_left_out(self, snowman_dir, tmp_path):
+    def test_the_hull_contours_and_occluder_can_be_left_out(self, snowman_dir, tmp_path):
         small = ["--superquadrics", "0", "--size", "64", "--evidence-size", "128", "--evidence-voxels", "64"]
         found = {}
-        for flags in ([], ["--no-contours", "--no-occluder"]):
+        for flags in ([], ["--no-outline-hull"], ["--no-outline-hull", "--no-contours", "--no-occluder"]):
             out = tmp_path / f"s{len(flags)}.doodle"
             r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *small, *flags])
             assert r.exit_code == 0, r.output
             s = read_strokes(out)
-            found[len(flags)] = (s.occluder is not None, bool((s.curves.gates > 0).any()))
-        assert found == {0: (True, True), 2: (False, False)}
+            found[len(flags)] = (s.hull is not None, s.occluder is not None, bool((s.curves.gates > 0).any()))
+        # the hull's outline draws what contour curves would: with it there are none
+        assert found == {0: (True, True, False), 1: (False, True, True), 3: (False, False, False)}
 
     def test_fit_bad_scene(self, tmp_path):
         r = CliRunner().invoke(cli, ["fit", str(tmp_path / "nope"), "-o", str(tmp_path / "x.doodle")])

@@ -12,7 +12,7 @@ from doodle.fit.evidence import Evidence, VoxelGrid, depth_maps
 from doodle.fit.sightlines import seen_through
 from doodle.fit.volume import clear_seen
 from doodle.strokes.bezier import bezier_points
-from doodle.strokes.model import Occluder
+from doodle.strokes.model import Voxels
 
 N = 40
 H = 2.0 / N  # voxel
@@ -64,7 +64,7 @@ def test_a_curve_the_views_show_under_the_hull_clears_its_sight_lines_and_nothin
     assert ev.depth[0][v, u] < z[0] - 4 * H
     assert depth[0][v, u] >= z[0] - 2 * H
     # what is cleared is not hidden in the drawings either: the occluder over the edge opens
-    occ = Occluder(ev.grid.origin, ev.grid.voxel, np.eye(3), ev.occupied.copy())
+    occ = Voxels(ev.grid.origin, ev.grid.voxel, np.eye(3), ev.occupied.copy())
     cleared = clear_seen(occ, ev.grid, free)
     assert cleared.occupied.sum() == occ.occupied.sum() - free.sum()
     # nothing deeper than asked

@@ -10,9 +10,10 @@ import numpy as np
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.bezier import bernstein, bezier_length, bezier_points
-from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 from ..strokes.superquadric import union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
+from .outline import FIT_TOLERANCE, GIVE_WAY, GIVE_WAY_PX, outline_polylines, uncovered_runs
 from .project import depth_intervals, project_curves, visibility_runs
 from .silhouettes import contour_polylines, split_runs
 from .visibility import occluded
@@ -40,6 +41,9 @@ class DrawOptions:
     """Visible pieces of a curve shorter than this share of the object's size on screen (the diameter of
     its bounding sphere there) are not drawn: a curve seen end-on, or a longer one that peeks out from behind
     a part, leaves a stub that reads as a dot or a tick."""
+    outline: bool = True
+    """Draw the outline of the stroke set's ``hull`` (when it has one; :mod:`.outline`), in the ``silhouettes``
+    layer, where the other strokes leave it undrawn."""
     min_mark: float = 0.02
     """A mark — a visible piece together with every piece that touches it (ends or sides within
     :data:`TOUCH_PX`, in any layer but ``hidden``) — whose extent (its box's diagonal) is under this share of
@@ -131,6 +135,9 @@ def draw_many(strokes: StrokeSet, cameras: list[Camera], options: DrawOptions | 
         for mine, ops in zip(paths, _curve_paths(curves.subset(wanted), wanted, sq, cameras, opt, margin, near, volume,
                                                 strokes.frame)):
             mine.extend(ops)
+    if opt.silhouettes and opt.outline and strokes.hull is not None:
+        for mine, ops in zip(paths, _hull_outline_paths(strokes.hull, cameras, paths, opt)):
+            mine.extend(ops)
     if opt.min_mark > 0:
         paths = [drop_small_marks(p, opt.min_mark * on_screen_size(c, strokes.frame)) for c, p in zip(cameras, paths)]
     return [Drawing(camera, p, strokes.curves.width_px) for camera, p in zip(cameras, paths)]
@@ -186,7 +193,7 @@ def drop_small_marks(ops: list[PathOp], smallest: float, touch: float = TOUCH_PX
 
 
 def silhouette_hidden(points: np.ndarray, normals: np.ndarray, owner: np.ndarray, view: np.ndarray,
-                      cameras: list[Camera], sq: SuperquadricSet, margin: float, volume: Occluder | None = None
+                      cameras: list[Camera], sq: SuperquadricSet, margin: float, volume: Voxels | None = None
                       ) -> np.ndarray:
     """Whether superquadric contour points ``(P, 3)`` (unit ``normals``, ``owner`` superquadric, seen from
     ``cameras[view]``) are hidden: by the other superquadrics (never by their own, convex one, whose surface
@@ -198,7 +205,7 @@ def silhouette_hidden(points: np.ndarray, normals: np.ndarray, owner: np.ndarray
 
 
 def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptions, margin: float | None,
-                      near: float, volume: Occluder | None = None) -> list[list[PathOp]]:
+                      near: float, volume: Voxels | None = None) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) runs of the union's contour as cubic paths (hidden also behind
     the occluder ``volume``, tested a margin out along the surface normal)."""
     drawn = sq.drawn  # occluder-only superquadrics hide things but draw no contour
@@ -247,6 +254,20 @@ def _silhouette_paths(sq: SuperquadricSet, cameras: list[Camera], opt: DrawOptio
         op.subpaths = [next(fitted) for _ in op.closed]
         if op.subpaths:
             out[v].append(op)
+    return out
+
+
+def _hull_outline_paths(hull: Voxels, cameras: list[Camera], drawn: list[list[PathOp]], opt: DrawOptions
+                        ) -> list[list[PathOp]]:
+    """Per camera, the hull's outline where the paths ``drawn`` so far (curves, superquadric outlines; not the
+    hidden layer) leave it undrawn, as one path ``outline`` in the silhouettes layer."""
+    out: list[list[PathOp]] = [[] for _ in cameras]
+    for v, ((polys, foot), ops) in enumerate(zip(outline_polylines(hull, cameras), drawn)):
+        ink = [op.points() for op in ops if op.layer != "hidden"]
+        runs = uncovered_runs(polys, np.concatenate(ink) if ink else np.zeros((0, 2)), max(GIVE_WAY_PX, GIVE_WAY * foot))
+        if runs:
+            fitted = fit_cubics_many([r for r, _ in runs], max(FIT_TOLERANCE * foot, opt.tolerance), [c for _, c in runs])
+            out[v].append(PathOp("outline", "silhouettes", fitted, [c for _, c in runs]))
     return out
 
 
@@ -334,7 +355,7 @@ def piece_length(cubics: np.ndarray) -> float:
 
 
 def _curve_paths(curves: CurveSet, ids: np.ndarray, sq: SuperquadricSet, cameras: list[Camera],
-                 opt: DrawOptions, margin: float | None, near: float, volume: Occluder | None,
+                 opt: DrawOptions, margin: float | None, near: float, volume: Voxels | None,
                  frame: SceneFrame) -> list[list[PathOp]]:
     """Per camera, the visible (and hidden) pieces of every curve; one visibility query for all at each step.
 

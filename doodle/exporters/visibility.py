@@ -12,7 +12,7 @@ import numpy as np
 
 from ..arrays import first_occupied, free_space
 from ..cameras import Camera
-from ..strokes.model import Occluder, SuperquadricSet
+from ..strokes.model import SuperquadricSet, Voxels
 from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
 
 
@@ -112,7 +112,7 @@ def ray_origins(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> 
 SAMPLES_PER_VOXEL = 2
 
 
-def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Occluder) -> np.ndarray:
+def volume_blocked(origins: np.ndarray, ends: np.ndarray, volume: Voxels) -> np.ndarray:
     """Whether each segment ``origins[k] → ends[k]`` ``(P, 3)`` passes through an occupied voxel of
     ``volume``, ``(P,)``: sampled at most every half voxel where it crosses the grid's box, a sample blocking
     when its nearest voxel is occupied.
@@ -146,7 +146,7 @@ VOLUME_SLACK = 1.5
 
 
 def occluded(points: np.ndarray, view: np.ndarray, cameras: list[Camera], sq: SuperquadricSet, margin: float,
-             samples: int = 32, exclude: np.ndarray | None = None, volume: Occluder | None = None) -> np.ndarray:
+             samples: int = 32, exclude: np.ndarray | None = None, volume: Voxels | None = None) -> np.ndarray:
     """Points ``(P, 3)`` hidden from ``cameras[view[k]]`` by the union, ``(P,)``: one query for many views.
 
     The march stops ``margin`` (scene units) short of each point, so points on or just under the union's

@@ -184,7 +184,7 @@ def _first_cut(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class VoxelHull:
     """Voxels most views call object: ``occupied bool (X, Y, Z)``; voxel ``(i, j, k)`` has centre
-    ``origin + (i, j, k) · voxel`` (the convention of :class:`~doodle.strokes.model.Occluder`, axes = world axes)."""
+    ``origin + (i, j, k) · voxel`` (the convention of :class:`~doodle.strokes.model.Voxels`, axes = world axes)."""
 
     occupied: np.ndarray
     origin: np.ndarray

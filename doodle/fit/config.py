@@ -30,15 +30,21 @@ class FitConfig:
     evidence_voxels: int = 192
     """Evidence grid voxels along the object's longest side."""
     contours: bool = True
-    """Discovery also offers each training view's outline as contour curves (``doodle.fit.rims``): curves
-    drawn only from the views that graze them, which outline smooth parts no fixed curve or superquadric
-    draws."""
+    """Without ``outline_hull``: discovery also offers each training view's outline as contour curves
+    (``doodle.fit.rims``), curves drawn only from the views that graze them, which outline smooth parts no
+    fixed curve or superquadric draws."""
     texture: bool = True
     """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
     printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.texture``)."""
     occluder: bool = True
     """Store the visual hull, on a coarse grid, in the stroke file as an occluder: the exporters hide the
     curves and outlines behind it (with masks only). Occluder-only superquadrics are then not kept."""
+    outline_hull: bool = True
+    """Store the visual hull carved for the evidence (``evidence_voxels`` on its longest side) in the stroke file
+    as its ``hull``: every view draws the outline of its projection where the other strokes leave it undrawn
+    (``doodle.exporters.outline``; with masks only). It draws the outline in every view, which contour curves
+    (``contours``) and the curves added for the outline alone did in the views near the training views: with
+    the hull there are neither."""
     discovery_min_gain: float = 0.0005
     """Discovery keeps adding strokes while the next one newly explains at least this share of all line
     pixels over the views."""
@@ -87,8 +93,9 @@ class FitConfig:
 
     @property
     def outline_curves(self) -> int:
-        """Curves discovery may add for the outline alone once ``max_curves`` are chosen (none for a number)."""
-        return AUTO_OUTLINE_CURVES if self.curves == "auto" else 0
+        """Curves discovery may add for the outline alone once ``max_curves`` are chosen (none for a number, and
+        none when the hull's outline is drawn: it completes the outline)."""
+        return AUTO_OUTLINE_CURVES if self.curves == "auto" and not self.outline_hull else 0
 
     @property
     def curve_iterations(self) -> int:

@@ -610,15 +610,16 @@ def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, t
     return choose_curves(cand, max_curves, min_gain, log=log)
 
 
-def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None) -> np.ndarray:
-    """Line pixels (global ids over the selection views) that the superquadrics' visible outline draws, within
-    ``reach`` pixels: a smooth part's outline is only as exact as its superquadric, and lines beside it are
-    the same outline, not a place for curves (which would read as ticks along the rim)."""
+def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None, hull=None) -> np.ndarray:
+    """Line pixels (global ids over the selection views) that the superquadrics' visible outline and the
+    ``hull``'s outline draw, within ``reach`` pixels: a smooth part's outline is only as exact as its
+    superquadric, and lines beside it are the same outline, not a place for curves (which would read as ticks
+    along the rim)."""
     from ..exporters.drawing import DrawOptions, draw_many
     from ..strokes.model import CurveSet, StrokeSet
 
     cams = [cand.evidence.cameras[v] for v in cand.views]
-    drawings = draw_many(StrokeSet(frame, CurveSet(), sq, occluder=occluder), cams,
+    drawings = draw_many(StrokeSet(frame, CurveSet(), sq, occluder=occluder, hull=hull), cams,
                          DrawOptions(curves=False, hidden="hide", tolerance=0.5, min_mark=0.0))
     pixels = [np.concatenate([op.points() for op in d.layer("silhouettes")] or [np.zeros((0, 2))]) for d in drawings]
     return cand.pixel_ids(pixels, reach)

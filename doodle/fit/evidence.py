@@ -26,6 +26,7 @@ from skimage import feature
 
 from ..cameras import Camera
 from ..scenes import Scene
+from ..strokes.model import Voxels
 
 
 @dataclass
@@ -56,6 +57,10 @@ class VoxelGrid:
     def to_world(self, vectors: np.ndarray) -> np.ndarray:
         """Directions ``(..., 3)`` along the grid's axes → world directions."""
         return vectors @ self.axes
+
+    def volume(self, occupied: np.ndarray) -> Voxels:
+        """The stroke file's voxel volume of ``occupied`` ``bool`` (this grid's shape) on this grid (copied)."""
+        return Voxels(self.origin.copy(), float(self.voxel), self.axes.copy(), np.array(occupied, bool))
 
 
 def fit_axes(points: np.ndarray, up: np.ndarray, prefer_world: float = 0.9, steps: int = 36) -> np.ndarray:

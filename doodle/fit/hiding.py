@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..cameras import Camera
-from ..strokes.model import CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 from .outlines import ink_paths, raster_layer
 
 MIN_HIDDEN_ON_LINES = 0.7
@@ -36,13 +36,13 @@ def _curve_owner(path_id: str) -> int:
 
 def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera],
                    lines: list[np.ndarray], min_share: float = MIN_HIDDEN_ON_LINES, tau_px: int = 2,
-                   occluder: Occluder | None = None) -> np.ndarray:
+                   occluder: Voxels | None = None, hull: Voxels | None = None) -> np.ndarray:
     """``bool (N,)``: the curves whose facing hides ink that the views' lines confirm (their normals should
     be zeros).
 
     Args:
         sq: the superquadrics, which hide curves either way (drawn with them, so only facing is judged), as
-            does the ``occluder``.
+            does the ``occluder``; the ``hull``'s outline is drawn with them too (lines it draws are not undrawn).
         cameras, lines: training views and their line maps ``bool (H, W)``: the mask's outline and the image's
             strong edges (:func:`.evidence.object_lines` with ``thin=0``). Not thin parts' axes: a thin part's
             hidden edges lie beside its axis as closely as its visible ones (the chair's legs).
@@ -54,7 +54,7 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
     from ..exporters.drawing import DrawOptions, draw_many
 
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
-    drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder), cameras, opts)
+    drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder, hull=hull), cameras, opts)
     facing = raster_layer(drawings, cameras, "curves", _curve_owner)
     # the curves again without normals; the outlines are the same, so they are not drawn twice
     plain_normals = curves.normals.copy()

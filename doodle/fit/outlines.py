@@ -23,7 +23,7 @@ from scipy import ndimage
 
 from ..cameras import Camera
 from ..strokes.bezier import bezier_points
-from ..strokes.model import OUTLINE_CELLS, CurveSet, Occluder, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import OUTLINE_CELLS, CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 
 MIN_OUTLINE_GAIN = 0.002
 """A superquadric's outline is drawn when it raises the training views' sketch F by at least this much."""
@@ -101,7 +101,7 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
 
 
 def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
-                      masks: list[np.ndarray], tau: float = 0.008, occluder: Occluder | None = None) -> np.ndarray:
+                      masks: list[np.ndarray], tau: float = 0.008, occluder: Voxels | None = None) -> np.ndarray:
     """Per superquadric, the share of its own visible outline (the others and the ``occluder`` hiding what lies
     behind it) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks'
     boundary, pooled over ``cameras``."""
@@ -126,7 +126,7 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
 
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
                     masks: list[np.ndarray], tau: float = 0.008, min_share: float = MIN_CELL_SHARE,
-                    grid: tuple[int, int] = (32, 64), occluder: Occluder | None = None) -> np.ndarray:
+                    grid: tuple[int, int] = (32, 64), occluder: Voxels | None = None) -> np.ndarray:
     """``(M, *OUTLINE_CELLS)`` bool: the cells of each superquadric's surface where its contour is confirmed.
 
     Every superquadric's contour is found in every view (as if all were drawn; each hidden by the others as the
@@ -161,7 +161,7 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
 
 
 def confirm_outlines(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
-                     masks: list[np.ndarray], occluder: Occluder | None = None) -> SuperquadricSet:
+                     masks: list[np.ndarray], occluder: Voxels | None = None) -> SuperquadricSet:
     """``sq`` with its drawn outlines drawn only where the views confirm them (:func:`confirmed_cells`)."""
     if not sq.drawn.any():
         return replace(sq, outline_cells=None)
@@ -198,7 +198,8 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
                   lines: list[np.ndarray], masks: list[np.ndarray], min_inside: float = 0.9,
                   min_gain: float = MIN_OUTLINE_GAIN, min_precision: float = MIN_OUTLINE_PRECISION,
                   curves_beside: Callable[[SuperquadricSet], tuple[CurveSet, np.ndarray]] | None = None,
-                  occluder: Occluder | None = None, log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
+                  occluder: Voxels | None = None, hull: Voxels | None = None,
+                  log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
     """Decide each superquadric's role (see the module doc): a drawn outline, an occluder only, or dropped.
 
     A superquadric whose silhouette spills out of the masks (less than ``min_inside`` of it inside) would
@@ -210,7 +211,8 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
     own outline lies on the object's lines (:func:`outline_precision`). ``curves_beside(sq)`` gives the curves
     that would be chosen beside ``sq``'s drawn outlines (they avoid lines an outline already draws), so an
     outline that only displaces sharp curves gains nothing, with the view each contour curve was traced in
-    (``traced`` of :func:`sketch_score`); without it, ``curves`` stay as they are.
+    (``traced`` of :func:`sketch_score`); without it, ``curves`` stay as they are. The ``hull``'s outline is
+    drawn in every trial: an outline must add to it.
     """
     if len(sq) == 0:
         return sq
@@ -223,7 +225,7 @@ def keep_outlines(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, came
         return sq
 
     def score(drawn: np.ndarray, beside: tuple[CurveSet, np.ndarray | None]) -> float:
-        strokes = StrokeSet(frame, beside[0], sq.subset(drawn), occluder=occluder)
+        strokes = StrokeSet(frame, beside[0], sq.subset(drawn), occluder=occluder, hull=hull)
         return sketch_score(strokes, cameras, lines, masks, traced=beside[1])[0]
 
     precision = outline_precision(sq, frame, cameras, lines, masks, occluder=occluder)

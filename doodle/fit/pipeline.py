@@ -20,7 +20,7 @@ from ..atomic import atomic_path
 from ..cameras import Camera
 from ..errors import DoodleError
 from ..scenes import Scene
-from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, Occluder, SceneFrame, StrokeSet, SuperquadricSet
+from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 from .config import FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
@@ -39,7 +39,7 @@ FLAT_END = 0.3
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
-               "evidence_size", "evidence_voxels", "discovery_min_gain", "contours")
+               "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "outline_hull")
 
 
 @dataclass
@@ -86,11 +86,12 @@ def _validate(cfg: FitConfig, scene: Scene) -> None:
 
 
 def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3,
-                      occluder: Occluder | None = None) -> list[np.ndarray]:
-    """Per camera, the pixels within ``grow_px`` of the union's visible silhouette as the exporter draws it."""
+                      occluder: Voxels | None = None, hull: Voxels | None = None) -> list[np.ndarray]:
+    """Per camera, the pixels within ``grow_px`` of the outline as the exporter draws it: the union's visible
+    silhouette and the ``hull``'s."""
     from ..exporters.drawing import DrawOptions, draw_many
 
-    strokes = StrokeSet(frame, CurveSet(), sq, occluder=occluder)
+    strokes = StrokeSet(frame, CurveSet(), sq, occluder=occluder, hull=hull)
     drawings = draw_many(strokes, cameras, DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5))
     out = []
     for cam, per in zip(cameras, raster_layer(drawings, cameras, "silhouettes", lambda _: 0)):
@@ -316,7 +317,7 @@ def _superquadrics_from_checkpoint(tensors: list) -> SuperquadricSet:
 def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
                       judge: tuple[list[Camera], list[np.ndarray], list[np.ndarray]],
                       finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None],
-                      occluder: Occluder | None = None) -> SuperquadricSet:
+                      occluder: Voxels | None = None) -> SuperquadricSet:
     """Judge the drawn outlines again among the superquadrics that stay (``judge``: the cameras, line maps and
     masks of :func:`~doodle.fit.outlines.keep_outlines`): once occluders that hid parts of an outline are
     dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its outline on the
@@ -372,7 +373,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     discovering = cfg.discover and work.masks is not None and cfg.curves != 0
     normals: np.ndarray | None = None
     contour: np.ndarray | None = None
-    candidates = strong = None
+    candidates = strong = hull = None
     if discovering:
         if ck is not None and ck.get("discovered") is not None:
             start = np.asarray(ck["discovered"]["control_points"].numpy(), dtype=np.float64)
@@ -382,15 +383,21 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             seen = ck["discovered"].get("occluder")
             if occluder is not None and seen is not None and tuple(seen.shape) == occluder.occupied.shape:
                 occluder = replace(occluder, occupied=seen.numpy().astype(bool))  # as cleared by the sight lines
+            if ck["discovered"].get("hull") is not None:
+                h = ck["discovered"]["hull"]
+                hull = Voxels(h["origin"].numpy(), float(h["voxel"]), h["axes"].numpy(), h["occupied"].numpy().astype(bool))
         else:
             from .discover import choose_curves, find_candidates
 
+            # the hull's outline draws what contour curves would, in every view
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
-                                         contours=cfg.contours, texture=cfg.texture, log=say)
+                                         contours=cfg.contours and not cfg.outline_hull, texture=cfg.texture, log=say)
             if occluder is not None and candidates.evidence.free is not None:
                 from .volume import clear_seen
 
                 occluder = clear_seen(occluder, candidates.evidence.grid, candidates.evidence.free)
+            if cfg.outline_hull:
+                hull = candidates.evidence.grid.volume(candidates.evidence.occupied)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
             strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
             start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline
@@ -402,6 +409,11 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             f" ({len(surface)} candidate points)")
         n = max(cfg.max_curves, 1)
         start = initial_curves(farthest_points(surface, n, rng), 0.15 * frame.radius, rng)[: cfg.max_curves]
+        if cfg.outline_hull and work.masks is not None:
+            from .evidence import carve_hull
+
+            grid, occupied = carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels)
+            hull = grid.volume(occupied)
 
     wants_sq = cfg.superquadrics != 0 and work.masks is not None
     if cfg.superquadrics != 0 and work.masks is None:
@@ -461,7 +473,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     def current_strokes() -> StrokeSet:
         sq = final_sq if final_sq is not None else (sq_params.to_set() if sq_params is not None else SuperquadricSet())
         return _stroke_set(frame, scene, current_curves() if stage == "curves" else CurveSet(), sq, cfg, method, 0.0,
-                           occluder)
+                           occluder, hull)
 
     def checkpointer(stage_name: str):
         def save(state: StageState) -> None:
@@ -479,7 +491,10 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 "discovered": None if not discovering else
                 {"control_points": f32(start), "normals": f32(normals), "contour": f32(contour),
                  "outline": float(outline),
-                 "occluder": None if occluder is None else torch.from_numpy(occluder.occupied.copy())},
+                 "occluder": None if occluder is None else torch.from_numpy(occluder.occupied.copy()),
+                 "hull": None if hull is None else {
+                     "origin": f32(hull.origin), "voxel": float(hull.voxel), "axes": f32(hull.axes),
+                     "occupied": torch.from_numpy(hull.occupied.copy())}},
             })
         return save
 
@@ -491,7 +506,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         """The choice of curves with ``sq``'s drawn outlines counted as drawn."""
         from .discover import choose_curves, outline_pixel_ids
 
-        # An outline counts as drawn within 1.5 working pixels (the evidence views are finer).
+        # An outline counts as drawn within 1.5 working pixels (the evidence views are finer). The hull's does
+        # not: it gives way to the curves where they draw it, and a crisp edge along the outline draws it better.
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio)), occluder) if sq.drawn.any() else None
         return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish,
@@ -562,7 +578,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                      [work.masks[v] for v in judge_views])
             final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
                                      curves_beside=curves_beside if candidates is not None else None,
-                                     occluder=occluder, log=say)
+                                     occluder=occluder, hull=hull, log=say)
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)
             if judge is not None and final_sq.drawn.any():
@@ -587,7 +603,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     steps = cfg.curve_iterations
     if not interrupted and len(curve_params) and steps > 0:
-        exclude = silhouette_pixels(final_sq, frame, work.cameras, occluder=occluder) if len(final_sq) else None
+        exclude = silhouette_pixels(final_sq, frame, work.cameras, occluder=occluder, hull=hull) \
+            if len(final_sq) or hull is not None else None
         targets = build_targets(work, str(device), exclude)
         objective.begin(targets, frame, gen)
         lr = cfg.lr_curves * frame.radius * (0.25 if discovering else 1.0)  # discovered curves only need polish
@@ -605,16 +622,17 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         curves, _ = prune_curves(curves, targets, cfg.curve_max_distance_px)
         say(f"curves: kept {len(curves)} of {n_before} (the others do not lie on lines across the views)")
     if discovering and len(curves) and work.masks is not None:
-        curves = _confirm_hiding(curves, final_sq, frame, work, say, occluder)
+        curves = _confirm_hiding(curves, final_sq, frame, work, say, occluder, hull)
     seconds = time.perf_counter() - clock_start
-    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, occluder)
+    strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, occluder, hull)
     if ckpt_path is not None and not interrupted:
         ckpt_path.unlink(missing_ok=True)
     return FitResult(strokes, interrupted, seconds, messages)
 
 
 def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, work: Scene,
-                    say: Callable[[str], None], occluder: Occluder | None = None) -> CurveSet:
+                    say: Callable[[str], None], occluder: Voxels | None = None, hull: Voxels | None = None
+                    ) -> CurveSet:
     """The curves with facing kept only where the training views do not contradict it (:mod:`.hiding`)."""
     from .evidence import object_lines
     from .hiding import wrongly_hidden
@@ -622,7 +640,8 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
     views = spread_indices(len(work), OUTLINE_VIEWS)
     # without thin parts' axes: a thin part's hidden edge lies beside its axis, as near as its visible one
     wrong = wrongly_hidden(curves, sq, frame, [work.cameras[v] for v in views],
-                           [object_lines(work.images[v], work.masks[v], thin=0) for v in views], occluder=occluder)
+                           [object_lines(work.images[v], work.masks[v], thin=0) for v in views], occluder=occluder,
+                           hull=hull)
     if not wrong.any():
         return curves
     say(f"curves: {int(wrong.sum())} drawn from every side (the views see what their faces would hide)")
@@ -632,10 +651,10 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
 
 
 def _stroke_set(frame: SceneFrame, scene: Scene, curves: CurveSet, sq: SuperquadricSet, cfg: FitConfig,
-                method: str, seconds: float, occluder: Occluder | None = None) -> StrokeSet:
+                method: str, seconds: float, occluder: Voxels | None = None, hull: Voxels | None = None) -> StrokeSet:
     return StrokeSet(
         frame=SceneFrame(frame.up.copy(), frame.center.copy(), frame.radius, DefaultCamera(**vars(frame.camera))),
-        curves=curves, superquadrics=sq, occluder=occluder,
+        curves=curves, superquadrics=sq, occluder=occluder, hull=hull,
         provenance={"tool": f"doodle {__version__}", "source": scene.source, "objective": cfg.objective,
                     "iterations": cfg.curve_iterations, "superquadric_iterations": cfg.sq_iterations,
                     "init": method, "seed": cfg.seed, "seconds": round(seconds, 2)},

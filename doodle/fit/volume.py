@@ -17,7 +17,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..scenes import Scene
-from ..strokes.model import Occluder
+from ..strokes.model import Voxels
 from .evidence import VoxelGrid, _project, carve_hull
 
 
@@ -77,17 +77,17 @@ def occluder_voxels(size: int) -> int:
     return int(min(OCCLUDER_VOXELS, max(16, round(size * 3 / 8))))
 
 
-def hull_occluder(scene: Scene, max_voxels: int = OCCLUDER_VOXELS) -> Occluder:
+def hull_occluder(scene: Scene, max_voxels: int = OCCLUDER_VOXELS) -> Voxels:
     """The visual hull carved from the scene's masks on a coarse grid, as the stroke set's occluder: it hides
     the curves and outlines behind the object's bulk where no superquadric stands (a box's back edges seen
     through its front, a tripod's far leg behind its microphone)."""
     grid, occupied = carve_hull(scene, max_voxels)
     # A voxel in: the hull fills concavities no view looks into (beside Lego's tracks, on its plate), where
     # visible edges lie inside it; shrunk, it hides them less (Lego held-out recall 0.77 → 0.80).
-    return Occluder(grid.origin.copy(), float(grid.voxel), grid.axes.copy(), ndimage.binary_erosion(occupied))
+    return grid.volume(ndimage.binary_erosion(occupied))
 
 
-def clear_seen(occluder: Occluder, grid: VoxelGrid, free: np.ndarray) -> Occluder:
+def clear_seen(occluder: Voxels, grid: VoxelGrid, free: np.ndarray) -> Voxels:
     """The occluder without the voxels whose centres fall in voxels of ``grid`` marked ``free`` (the hull the views
     see through, :mod:`.sightlines`): what the training views show must not be hidden in the drawings."""
     ijk = np.argwhere(occluder.occupied)

@@ -6,7 +6,7 @@ Layout (little-endian)::
     frame: up 3×f32, center 3×f64, radius f64, fov/distance/elevation/azimuth 4×f32, width u16, height u16,
            width_px f32
     quantisation: origin 3×f64, position step f64, scale step f64, position bits u8, scale bits u8
-    version 2 only: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow,
+    versions 2 and 3: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow,
                               bit 2: outline cells follow, bit 3: contour gates follow)
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
@@ -14,9 +14,11 @@ Layout (little-endian)::
                 [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
                 normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)],
                 [contour gates (N × GATE_BITS bits on [0, 1])]
-    trailer: u16 length + zlib(JSON of provenance, extras and the occluder volume, as in the JSON file)
+    trailer: length (u16; version 3: u32) + zlib(JSON of provenance, extras and the voxel volumes, ``occluder``
+             and ``hull``, as in the JSON file)
 
-Version 1 is written when there is none of them (older readers read it); version 2 otherwise.
+Version 1 is written when there are no flags (older readers read it), version 3 when the trailer is longer than
+a u16 can say (a fine ``hull``), version 2 otherwise.
 
 Positions are quantised on a grid whose step keeps the round-trip error ≤ 2.5e-4 of the scene radius
 (the bits per coordinate follow from the extent: 13 bits for a typical object). 32 curves and
@@ -33,12 +35,12 @@ import zlib
 import numpy as np
 
 from ..errors import StrokeFileError
-from .fileio import (FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, occluder_to_dict, outline_cell_rows,
-                     stroke_set_from_dict)
+from .fileio import (FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, SHAPE_RANGE, VERSION, outline_cell_rows, stroke_set_from_dict,
+                     voxels_to_dict)
 from .model import OUTLINE_CELLS, StrokeSet
 
 MAGIC = b"DDLB"
-BINARY_VERSION = 2
+BINARY_VERSION = 3
 NORMAL_BITS = 6
 GATE_BITS = 8
 #: Round-trip tolerance of positions and scales, as a fraction of the scene radius.
@@ -155,24 +157,26 @@ def encode(strokes: StrokeSet) -> bytes:
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     meta = {"provenance": strokes.provenance, "extra": strokes.extra,
-            **({"occluder": occluder_to_dict(strokes.occluder)} if strokes.occluder is not None else {})}
-    trailer = zlib.compress(json.dumps(meta, separators=(",", ":"), allow_nan=False).encode(), 9) if any(meta.values()) else b""
-    if len(trailer) > 65535:
-        raise StrokeFileError("provenance and occluder too large for the binary format's trailer; keep this file as JSON")
+            **{k: voxels_to_dict(v) for k, v in (("occluder", strokes.occluder), ("hull", strokes.hull)) if v is not None}}
+    text = json.dumps(meta, separators=(",", ":"), allow_nan=False).encode()
+    if len(text) > MAX_TRAILER_BYTES:
+        raise StrokeFileError("provenance and voxel volumes too large for the binary format's trailer; keep this file as JSON")
+    trailer = zlib.compress(text, 9) if any(meta.values()) else b""
+    version = 3 if len(trailer) > 65535 else 2 if flags else 1
     return b"".join([
-        _HEAD.pack(MAGIC, 2 if flags else 1, n, m),
+        _HEAD.pack(MAGIC, version, n, m),
         _FRAME.pack(*map(float, f.up), *map(float, f.center), float(f.radius), float(cam.fov_deg), float(cam.distance),
                     float(cam.elevation_deg), float(cam.azimuth_deg), int(cam.width), int(cam.height),
                     float(strokes.curves.width_px)),
         _QUANT.pack(*map(float, origin), pos_step, scale_step, pos_bits, scale_bits),
-        bytes([flags]) if flags else b"",
+        bytes([flags]) if version > 1 else b"",
         stream,
-        struct.pack("<H", len(trailer)),
+        struct.pack("<I" if version == 3 else "<H", len(trailer)),
         trailer,
     ])
 
 
-MAX_TRAILER_BYTES = 1 << 20  # inflated provenance: a 64 KB trailer must not become gigabytes
+MAX_TRAILER_BYTES = 4 << 20  # the inflated trailer (provenance, voxel volumes): a small one must not become gigabytes
 
 
 def _inflate(data: bytes) -> bytes:
@@ -197,8 +201,8 @@ def _decode(data: bytes) -> StrokeSet:
     magic, version, n, m = _HEAD.unpack_from(data, 0)
     if magic != MAGIC:
         raise StrokeFileError("not a binary stroke file (bad magic)")
-    if version not in (1, BINARY_VERSION):
-        raise StrokeFileError(f"version: unsupported binary version {version} (this doodle reads 1 and {BINARY_VERSION})")
+    if version not in (1, 2, BINARY_VERSION):
+        raise StrokeFileError(f"version: unsupported binary version {version} (this doodle reads 1 to {BINARY_VERSION})")
     fr = _FRAME.unpack_from(data, _HEAD.size)
     qo = _HEAD.size + _FRAME.size
     *origin, pos_step, scale_step, pos_bits, scale_bits = _QUANT.unpack_from(data, qo)
@@ -209,7 +213,7 @@ def _decode(data: bytes) -> StrokeSet:
     n_bits = (n * 12 + m * 3) * pos_bits + m * 3 * scale_bits + m * 2 * SHAPE_BITS + m * (2 + 3 * ROT_BITS)
     start = qo + _QUANT.size
     flags = 0
-    if version == 2:
+    if version >= 2:
         flags = data[start]
         start += 1
         if flags & ~15:
@@ -217,11 +221,12 @@ def _decode(data: bytes) -> StrokeSet:
         n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0) + (m * N_CELLS if flags & 4 else 0)
         n_bits += n * GATE_BITS if flags & 8 else 0
     stream_len = (n_bits + 7) // 8
-    if len(data) < start + stream_len + 2:
-        raise StrokeFileError(f"binary stroke data truncated ({len(data)} bytes, need {start + stream_len + 2})")
+    length = struct.Struct("<I" if version == 3 else "<H")
+    if len(data) < start + stream_len + length.size:
+        raise StrokeFileError(f"binary stroke data truncated ({len(data)} bytes, need {start + stream_len + length.size})")
     bitarr = np.unpackbits(np.frombuffer(data, dtype=np.uint8, count=stream_len, offset=start))
-    (tlen,) = struct.unpack_from("<H", data, start + stream_len)
-    tstart = start + stream_len + 2
+    (tlen,) = length.unpack_from(data, start + stream_len)
+    tstart = start + stream_len + length.size
     if len(data) != tstart + tlen:
         raise StrokeFileError(f"binary stroke data has {len(data) - tstart - tlen:+d} bytes beyond its trailer")
     meta = json.loads(_inflate(data[tstart:]).decode("utf-8"), parse_constant=_reject) if tlen else {}
@@ -268,7 +273,7 @@ def _decode(data: bytes) -> StrokeSet:
                               {"outline_cells": outline_cell_rows(cells[i])})}
                           for i in range(m)],
         "provenance": meta.get("provenance", {}),
-        **({"occluder": meta["occluder"]} if "occluder" in meta else {}),
+        **{k: meta[k] for k in ("occluder", "hull") if k in meta},
     }
     strokes = stroke_set_from_dict(doc)
     if not all(isinstance(v, dict) for v in extra.values()):

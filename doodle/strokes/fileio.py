@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import StrokeFileError
-from .model import OUTLINE_CELLS, CurveSet, DefaultCamera, Occluder, SceneFrame, StrokeSet, SuperquadricSet
+from .model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 
 FORMAT = "doodle-strokes"
 VERSION = 1
@@ -30,12 +30,13 @@ MAX_COORD = 1e6
 MIN_RADIUS = 1e-6
 MIN_CANVAS, MAX_CANVAS = 16, 16384
 _QUAT_TOL = 1e-3
-#: The occluder grid's largest side (voxels) and its base64 text's largest length: 256³ bits inflate to 2 MB.
-MAX_OCCLUDER_SIDE = 256
-MAX_OCCLUDER_TEXT = 4 * 1024 * 1024
+#: A voxel volume's (``occluder``, ``hull``) largest side and its base64 text's largest length: 256³ bits inflate
+#: to 2 MB.
+MAX_VOXEL_SIDE = 256
+MAX_VOXEL_TEXT = 4 * 1024 * 1024
 
 _KNOWN = {
-    "": {"format", "version", "scene", "curves", "superquadrics", "provenance", "occluder"},
+    "": {"format", "version", "scene", "curves", "superquadrics", "provenance", "occluder", "hull"},
     "scene": {"up", "center", "radius", "camera"},
     "scene.camera": {"fov_deg", "distance", "elevation_deg", "width", "height", "azimuth_deg"},
     "curves": {"control_points", "width_px", "normals", "contour"},
@@ -190,11 +191,11 @@ def _parse(data: Any) -> StrokeSet:
     provenance = top.get("provenance", {})
     if not isinstance(provenance, dict):
         raise _Invalid("provenance: expected an object")
-    occluder = _occluder(top["occluder"]) if "occluder" in top else None
+    occluder, hull = (_voxels(top[k], k) if k in top else None for k in ("occluder", "hull"))
 
     extra = {s: e for s, e in (("", _extras(top, "")), ("scene", _extras(scene, "scene")),
                                ("scene.camera", _extras(cam, "scene.camera")), ("curves", _extras(curves_d, "curves"))) if e}
-    return StrokeSet(frame, CurveSet(control, width_px, normals, contour), sq, dict(provenance), extra, occluder)
+    return StrokeSet(frame, CurveSet(control, width_px, normals, contour), sq, dict(provenance), extra, occluder, hull)
 
 
 def _curve_normals(value: Any, n: int) -> np.ndarray:
@@ -219,39 +220,39 @@ def _curve_normals(value: Any, n: int) -> np.ndarray:
     return out
 
 
-def _occluder(value: Any) -> Occluder:
-    """``occluder``: a voxel grid's ``origin``, ``voxel`` size, orthonormal ``axes`` (rows), ``shape`` and its
-    ``bits``: the occupancy in C order, packed 8 a byte (most significant first), zlib-compressed, base64."""
-    d = _obj(value, "occluder")
-    origin = _vector(_required(d, "origin", "occluder."), 3, "occluder.origin")
-    voxel = _number(_required(d, "voxel", "occluder."), "occluder.voxel", 0.0, lo_open=True)
-    rows = _required(d, "axes", "occluder.")
+def _voxels(value: Any, name: str) -> Voxels:
+    """A voxel volume (``occluder``, ``hull``): a grid's ``origin``, ``voxel`` size, orthonormal ``axes`` (rows),
+    ``shape`` and its ``bits``: the occupancy in C order, packed 8 a byte (most significant first), zlib-compressed, base64."""
+    d = _obj(value, name)
+    origin = _vector(_required(d, "origin", f"{name}."), 3, f"{name}.origin")
+    voxel = _number(_required(d, "voxel", f"{name}."), f"{name}.voxel", 0.0, lo_open=True)
+    rows = _required(d, "axes", f"{name}.")
     if not isinstance(rows, list) or len(rows) != 3:
-        raise _Invalid("occluder.axes: expected 3 axes")
-    axes = np.stack([_vector(r, 3, f"occluder.axes[{i}]") for i, r in enumerate(rows)])
+        raise _Invalid(f"{name}.axes: expected 3 axes")
+    axes = np.stack([_vector(r, 3, f"{name}.axes[{i}]") for i, r in enumerate(rows)])
     if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-3):
-        raise _Invalid("occluder.axes: expected orthonormal rows")
-    dims = _required(d, "shape", "occluder.")
+        raise _Invalid(f"{name}.axes: expected orthonormal rows")
+    dims = _required(d, "shape", f"{name}.")
     if not isinstance(dims, list) or len(dims) != 3:
-        raise _Invalid("occluder.shape: expected 3 integers")
-    shape = tuple(_int(v, f"occluder.shape[{i}]", 1, MAX_OCCLUDER_SIDE) for i, v in enumerate(dims))
-    text = _required(d, "bits", "occluder.")
-    if not isinstance(text, str) or len(text) > MAX_OCCLUDER_TEXT:
-        raise _Invalid(f"occluder.bits: expected base64 text of at most {MAX_OCCLUDER_TEXT} characters")
+        raise _Invalid(f"{name}.shape: expected 3 integers")
+    shape = tuple(_int(v, f"{name}.shape[{i}]", 1, MAX_VOXEL_SIDE) for i, v in enumerate(dims))
+    text = _required(d, "bits", f"{name}.")
+    if not isinstance(text, str) or len(text) > MAX_VOXEL_TEXT:
+        raise _Invalid(f"{name}.bits: expected base64 text of at most {MAX_VOXEL_TEXT} characters")
     size = (int(np.prod(shape)) + 7) // 8
     try:
         z = zlib.decompressobj()
         raw = z.decompress(base64.b64decode(text, validate=True), size + 1)
     except (ValueError, zlib.error) as exc:  # binascii.Error is a ValueError
-        raise _Invalid(f"occluder.bits: not base64 of zlib data ({exc})") from None
+        raise _Invalid(f"{name}.bits: not base64 of zlib data ({exc})") from None
     if len(raw) != size or z.unconsumed_tail:
-        raise _Invalid(f"occluder.bits: expected {size} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
+        raise _Invalid(f"{name}.bits: expected {size} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
     bits = np.unpackbits(np.frombuffer(raw, np.uint8))[: int(np.prod(shape))].astype(bool).reshape(shape)
-    return Occluder(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
+    return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
 
 
-def occluder_to_dict(occ: Occluder) -> dict:
-    """The file's ``occluder`` object (see :func:`_occluder`)."""
+def voxels_to_dict(occ: Voxels) -> dict:
+    """The file's ``occluder`` or ``hull`` object (see :func:`_voxels`)."""
     packed = np.packbits(np.asarray(occ.occupied, bool).ravel()).tobytes()
     return {"origin": _floats(occ.origin), "voxel": float(f"{occ.voxel:.9g}"), "axes": _floats(occ.axes),
             "shape": [int(v) for v in occ.occupied.shape],
@@ -312,7 +313,8 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
             for i in range(len(sq))
         ],
         "provenance": strokes.provenance,
-        **({"occluder": occluder_to_dict(strokes.occluder)} if strokes.occluder is not None else {}),
+        **({"occluder": voxels_to_dict(strokes.occluder)} if strokes.occluder is not None else {}),
+        **({"hull": voxels_to_dict(strokes.hull)} if strokes.hull is not None else {}),
         **extra.get("", {}),
     }
 

@@ -124,9 +124,9 @@ class SuperquadricSet:
 
 
 @dataclass
-class Occluder:
-    """A coarse voxel volume that hides what lies behind it and draws nothing: the object's visual hull, for
-    hidden-line removal where the superquadrics do not reach.
+class Voxels:
+    """A voxel volume on a grid that may turn with the object: a stroke set's :attr:`~StrokeSet.occluder` (hides
+    what lies behind it, draws nothing) or its :attr:`~StrokeSet.hull` (draws the outline of its projection).
 
     Voxel ``(i, j, k)`` has centre ``origin + (i, j, k) · voxel @ axes``; ``axes`` ``(3, 3)`` are the grid's
     unit axes in world coordinates, one per row; ``occupied`` ``bool (X, Y, Z)``.
@@ -156,8 +156,13 @@ class StrokeSet:
     provenance: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
     """Unknown top-level keys of the file, kept so a round trip loses nothing."""
-    occluder: Occluder | None = None
-    """Optional: a volume that hides curves and outlines behind it (see :class:`Occluder`)."""
+    occluder: Voxels | None = None
+    """Optional: a volume that hides curves and outlines behind it, and draws nothing (a fit stores the object's
+    visual hull on a coarse grid, shrunk by a voxel)."""
+    hull: Voxels | None = None
+    """Optional: a volume whose projected outline every view draws (:mod:`doodle.exporters.outline`; a fit
+    stores the visual hull carved for its evidence). A view-dependent outline like the superquadrics', as
+    intricate as the object's."""
 
     @property
     def is_empty(self) -> bool:
