@@ -12,17 +12,18 @@ from doodle.strokes.superquadric import matrix_to_quaternion
 def random_strokes(seed: int = 0, n_curves: int = 32, n_sq: int = 8, radius: float = 1.5,
                    extras: bool = False) -> StrokeSet:
     """A valid stroke set with random geometry inside the bounding sphere; with ``extras`` also curve normals,
-    contour gates and an occluder volume (every optional field a fit writes)."""
+    contour gates, an occluder volume and a hull (every optional field a fit writes)."""
     rng = np.random.default_rng(seed)
     rot = np.stack([matrix_to_quaternion(_proper(r)) for r in np.linalg.qr(rng.normal(size=(n_sq, 3, 3)))[0]]) if n_sq else np.zeros((0, 4))
     curves = CurveSet(rng.uniform(-radius * 0.7, radius * 0.7, (n_curves, 4, 3)))
-    occluder = None
+    occluder = hull = None
     if extras:
         n = rng.normal(size=(n_curves, 2, 2, 3))
         curves = CurveSet(curves.control_points, 1.5, n / np.linalg.norm(n, axis=-1, keepdims=True),
                           rng.choice([0.0, 0.15, 0.3], n_curves))
         axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         occluder = Voxels(rng.uniform(-radius, 0, 3), radius / 8, axes, rng.random((6, 5, 4)) > 0.4)
+        hull = Voxels(rng.uniform(-radius, 0, 3), radius / 16, axes, rng.random((12, 10, 8)) > 0.3)
     return StrokeSet(
         SceneFrame(radius=radius),
         curves,
@@ -30,6 +31,7 @@ def random_strokes(seed: int = 0, n_curves: int = 32, n_sq: int = 8, radius: flo
                         rng.uniform(-0.5, 0.5, (n_sq, 3)) * radius),
         provenance={"tool": "doodle test", "source": "random", "iterations": 0, "seconds": 0.0},
         occluder=occluder,
+        hull=hull,
     )
 
 
