@@ -49,6 +49,20 @@ class TestInitialisation:
         assert np.linalg.norm(interior - scene.frame.center, axis=1).max() <= 1.15 * scene.frame.radius + 1e-9
 
 
+    def test_the_outline_hull_drops_webs_and_parts_under_three_voxels_but_keeps_the_rest(self):
+        from doodle.fit.evidence import VoxelGrid
+        from doodle.fit.volume import outline_hull
+
+        occupied = np.zeros((30, 20, 20), bool)
+        occupied[2:10, 5:15, 5:15] = occupied[20:28, 5:15, 5:15] = True  # two blocks
+        occupied[10:20, 9:11, 5:15] = True  # a web two voxels thick between them
+        occupied[12:18, 2, 2] = True  # a loose wire one voxel thick
+        grid = VoxelGrid(np.array([0.1, 0.2, 0.3]), 0.05, occupied.shape, np.eye(3))
+        hull = outline_hull(grid, occupied)
+        assert np.allclose(hull.origin, grid.origin) and hull.voxel == grid.voxel
+        assert hull.occupied[3:9, 6:14, 6:14].all() and hull.occupied[21:27, 6:14, 6:14].all()
+        assert not hull.occupied[11:19].any()
+
     def test_hull_occluder_is_the_object_a_voxel_in(self, chair_dir):
         """The occluder a fit stores: its voxels lie in the chair (shrunk, the hull does not bulge out of it),
         and it fills the seat's and the back's bulk, so what is behind them is hidden."""

@@ -397,7 +397,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
                 occluder = clear_seen(occluder, candidates.evidence.grid, candidates.evidence.free)
             if cfg.outline_hull:
-                hull = candidates.evidence.grid.volume(candidates.evidence.occupied)
+                from .volume import outline_hull
+
+                hull = outline_hull(candidates.evidence.grid, candidates.evidence.occupied)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
             strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
             start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline
@@ -411,9 +413,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         start = initial_curves(farthest_points(surface, n, rng), 0.15 * frame.radius, rng)[: cfg.max_curves]
         if cfg.outline_hull and work.masks is not None:
             from .evidence import carve_hull
+            from .volume import outline_hull
 
-            grid, occupied = carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels)
-            hull = grid.volume(occupied)
+            hull = outline_hull(*carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels))
 
     wants_sq = cfg.superquadrics != 0 and work.masks is not None
     if cfg.superquadrics != 0 and work.masks is None:
