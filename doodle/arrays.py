@@ -107,6 +107,19 @@ def spread_indices(n: int, k: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(int))
 
 
+def along_polyline(points: np.ndarray, n: int, closed: bool = False) -> np.ndarray:
+    """``n`` points ``(n, D)`` evenly spaced by arc length along a polyline ``(P, D)`` of positive length, from
+    its first point to its last; ``closed``: around the loop back to the first point, which is not repeated.
+
+    >>> along_polyline(np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]]), 5).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]]
+    """
+    loop = np.vstack([points, points[:1]]) if closed else points
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(loop, axis=0), axis=1))]
+    at = np.linspace(0.0, arc[-1], n, endpoint=not closed)
+    return np.stack([np.interp(at, arc, loop[:, d]) for d in range(loop.shape[1])], axis=1)
+
+
 def nearest_voxels(padded: np.ndarray, coords: np.ndarray) -> np.ndarray:
     """The values ``(...)`` of a voxel grid at the voxels nearest to ``coords (..., 3)``, given in the grid's
     voxel coordinates (voxel centres at integers). ``padded`` is the grid with one empty voxel on every side

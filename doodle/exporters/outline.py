@@ -20,11 +20,16 @@ curve along a box's edge, a superquadric's exact outline), the hull's outline gi
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 from scipy import ndimage
+from skimage import measure
 
+from ..arrays import along_polyline
 from ..cameras import Camera
 from ..strokes.model import Voxels
+from .silhouettes import split_runs
 
 SMOOTH = 0.7
 """Standard deviation (voxels) of the Gaussian that smooths the occupancy before it is projected. At 0.7 the
@@ -54,8 +59,6 @@ def hull_shell(hull: Voxels) -> tuple[np.ndarray, np.ndarray]:
 
     Kept for the last two hulls seen: a file's views are drawn in batches, each asking again (0.2 s for Lego's
     3 million voxels)."""
-    import hashlib
-
     key = hashlib.sha1(b"".join([np.packbits(hull.occupied).tobytes(), str(hull.occupied.shape).encode(),
                                  np.asarray(hull.origin, np.float64).tobytes(), np.float64(hull.voxel).tobytes(),
                                  np.asarray(hull.axes, np.float64).tobytes()])).digest()
@@ -95,8 +98,6 @@ def outline_polylines(hull: Voxels, cameras: list[Camera]) -> list[tuple[list[np
         image = np.zeros(shape, np.float32)
         np.maximum.at(image, (row[ok], col[ok]), values[ok])
         polys = []
-        from skimage import measure
-
         for c in measure.find_contours(image, 0.5):
             if len(c) < 4:
                 continue
@@ -125,27 +126,16 @@ def _outward(image: np.ndarray, contour: np.ndarray, closed: bool) -> np.ndarray
     return normal * np.where(ahead <= behind, 1.0, -1.0)[:, None]
 
 
-def resample(poly: np.ndarray, spacing: float) -> np.ndarray:
-    """Points every ``spacing`` (or a little less) along a polyline ``(P, D)``, its ends kept."""
-    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
-    arc = np.r_[0.0, np.cumsum(seg)]
-    if arc[-1] <= 0:
-        return poly[:1]
-    s = np.linspace(0.0, arc[-1], max(int(np.ceil(arc[-1] / spacing)) + 1, 2))
-    return np.stack([np.interp(s, arc, poly[:, d]) for d in range(poly.shape[1])], axis=1)
-
-
 def uncovered_runs(polys: list[np.ndarray], ink: np.ndarray, reach: float) -> list[tuple[np.ndarray, bool]]:
     """The runs of outline polylines (resampled about a pixel apart) farther than ``reach`` px from every point
     of other strokes' ``ink`` ``(Q, 2)``, each with whether it is a closed loop."""
-    from scipy.spatial import cKDTree
-
-    from .silhouettes import split_runs
+    from scipy.spatial import cKDTree  # here, as in drop_small_marks: workers start without it (70 ms)
 
     tree = cKDTree(ink) if len(ink) else None
     runs = []
     for poly in polys:
-        pts = resample(poly, 1.0)
+        length = float(np.cumsum(np.linalg.norm(np.diff(poly, axis=0), axis=1))[-1])
+        pts = along_polyline(poly, int(np.ceil(length)) + 1) if length > 0 else poly[:1]  # a pixel apart
         closed = len(pts) > 3 and bool(np.allclose(poly[0], poly[-1]))
         if closed:
             pts[-1] = pts[0]  # split_runs keeps a loop joined at its seam when both ends are kept

@@ -26,7 +26,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from ..arrays import first_occupied, free_space
+from ..arrays import along_polyline, first_occupied, free_space
 from ..cameras import Camera
 from ..strokes.fitcurve import fit_cubics_many
 from .evidence import VoxelGrid
@@ -86,10 +86,8 @@ def _boundary_rays(cam: Camera, mask: np.ndarray, spacing: float = 1.25):
 def _resample(xy: np.ndarray, closed: bool, spacing: float) -> np.ndarray:
     """Points ``(K, 2)`` about ``spacing`` apart along a polyline (marching squares gives about two a pixel)."""
     loop = np.vstack([xy, xy[:1]]) if closed else xy
-    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(loop, axis=0), axis=1))]
-    n = max(int(arc[-1] / spacing), 8)
-    at = np.linspace(0.0, arc[-1], n, endpoint=not closed)
-    return np.stack([np.interp(at, arc, loop[:, 0]), np.interp(at, arc, loop[:, 1])], axis=1)
+    length = np.cumsum(np.linalg.norm(np.diff(loop, axis=0), axis=1))[-1]  # summed as along_polyline sums it
+    return along_polyline(xy, max(int(length / spacing), 8), closed)
 
 
 def _chords(cam: Camera, xy: np.ndarray, grid: VoxelGrid, free: np.ndarray, density: np.ndarray, near: float,
