@@ -336,8 +336,8 @@ def _log(msg: str) -> None:
 @click.option("--discover/--no-discover", default=True, show_default=True,
               help="Find curves from multi-view edge evidence (needs masks); --no-discover: the distance-field fit.")
 @click.option("--contours/--no-contours", default=True, show_default=True,
-              help="With --no-outline-hull: contour curves, the training views' outlines traced into 3D, drawn where "
-                   "a view grazes them.")
+              help="The training views' outlines traced into 3D: view-independent curves where they run along a "
+                   "crease, and (with --no-outline-hull) contour curves drawn where a view grazes them.")
 @click.option("--occluder/--no-occluder", default=True, show_default=True,
               help="Store the visual hull in the stroke file, to hide what lies behind the object's bulk.")
 @click.option("--outline-hull/--no-outline-hull", default=True, show_default=True,

@@ -91,6 +91,27 @@ class TestChoice:
         assert on_edges < 0.15 and edge_scores(kept, gt["feature_edges"], tol)[0] > 2 * on_edges
 
 
+    def test_beside_the_hulls_outline_no_stroke_on_a_smooth_face_is_chosen(self, tmp_path):
+        """With the hull's outline drawn, the outline that strokes on smooth faces were chosen for is drawn:
+        they are not chosen; the training views' outline traces are offered only as view-independent curves
+        and judged by the same rule."""
+        from dataclasses import replace
+
+        d = write_sample("parcel", tmp_path / "parcel", n_train=16, n_test=1, size=128)
+        cand = find_candidates(load_scene(d), 96, hull_outline=True)
+        traces = cand.source >= 0
+        assert not (cand.gates > 0).any() and traces.any()
+        assert cand.smooth[traces].any() and not cand.smooth[traces].all()  # the ball's and the box's edges'
+
+        def chosen_smooth(c) -> int:
+            found = choose_curves(c, 64, polish=False).control_points
+            rows = [int(np.flatnonzero((c.controls == f).all(axis=(1, 2)))[0]) for f in found]
+            return int(c.smooth[rows].sum())
+
+        assert chosen_smooth(replace(cand, hull_outline=False)) > 0  # chosen for the outline they draw
+        assert chosen_smooth(cand) == 0
+
+
 def test_print_is_dark_ink_on_the_box_and_the_renderer_draws_it():
     cam = sample_cameras("train", 12, 96)[5]
     plain = render_rgba([Box(np.zeros(3), half=np.array([0.5, 0.5, 0.5]))], cam)

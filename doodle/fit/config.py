@@ -30,9 +30,10 @@ class FitConfig:
     evidence_voxels: int = 192
     """Evidence grid voxels along the object's longest side."""
     contours: bool = True
-    """Without ``outline_hull``: discovery also offers each training view's outline as contour curves
-    (``doodle.fit.rims``), curves drawn only from the views that graze them, which outline smooth parts no
-    fixed curve or superquadric draws."""
+    """Discovery also offers each training view's outline traced into 3D (``doodle.fit.rims``): with
+    ``outline_hull`` as view-independent curves only (where the outline runs along a crease, the trace is the
+    crease); without it also as contour curves, drawn only from the views that graze them, which outline
+    smooth parts no fixed curve or superquadric draws."""
     texture: bool = True
     """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
     printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.texture``)."""
@@ -44,7 +45,8 @@ class FitConfig:
     as its ``hull``: every view draws the outline of its projection where the other strokes leave it undrawn
     (``doodle.exporters.outline``; with masks only). It draws the outline in every view, which contour curves
     (``contours``) and the curves added for the outline alone did in the views near the training views: with
-    the hull there are neither."""
+    the hull there are neither, and strokes on smooth faces, which were chosen only for the outline they draw,
+    are not chosen."""
     discovery_min_gain: float = 0.0005
     """Discovery keeps adding strokes while the next one newly explains at least this share of all line
     pixels over the views."""

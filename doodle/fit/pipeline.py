@@ -389,9 +389,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         else:
             from .discover import choose_curves, find_candidates
 
-            # the hull's outline draws what contour curves would, in every view
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
-                                         contours=cfg.contours and not cfg.outline_hull, texture=cfg.texture, log=say)
+                                         contours=cfg.contours, texture=cfg.texture, hull_outline=cfg.outline_hull,
+                                         log=say)
             if occluder is not None and candidates.evidence.free is not None:
                 from .volume import clear_seen
 
