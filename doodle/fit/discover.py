@@ -534,9 +534,10 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     rim = np.concatenate([np.flatnonzero(outlines[v]) + o for v, o in zip(views, offsets)])
     seconds["coverage"] = time.perf_counter() - t
     log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls) - n_rims} candidate "
-        f"cubics" + (f" ({int(smooth.sum())} on smooth faces: outline only)" if smooth is not None else "")
-        + (f" + {n_rims // k} contour cubics (each offered {k} ways)" if contours else "") +
-        f" (evidence {seconds['evidence']:.1f} s, "
+        f"cubics" + (f" + {n_rims // k} contour cubics (each offered {k} way{'s' * (k > 1)})" if contours else "")
+        + (f"; {int(smooth.sum())} of the {len(controls)} on smooth faces: "
+           + ("not taken, the hull draws their outline" if hull_outline else "outline only") if smooth is not None else "")
+        + f" (evidence {seconds['evidence']:.1f} s, "
         f"curves {seconds['curves']:.1f} s, sight lines {seconds['sight lines']:.1f} s"
         + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")"
         + (f"; the views see through {free.sum() / max(ev.occupied.sum(), 1):.0%} of the hull" if free.any() else ""))
