@@ -29,7 +29,7 @@ from ..arrays import spread_indices
 from ..scenes import Scene
 from ..strokes.bezier import bezier_points
 from ..strokes.fitcurve import fit_cubics_many
-from .evidence import Evidence, _project, depth_maps, edge_evidence
+from .evidence import Evidence, _project, curve_samples, depth_maps, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, find_rims
@@ -113,13 +113,7 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
     ``outline_reach + 0.5`` px (:data:`AUTOMATIC_OUTLINE_REACH`).
     """
     wide = _disc_offsets(outline_reach) if outlines is not None and outline_reach > 1 else None
-    rough = bezier_points(controls, np.linspace(0, 1, 9))
-    length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
-    n_samples = np.clip(np.ceil(length / ev.grid.voxel / spacing_px * 1.2).astype(int), 4, 4000)
-    params = [np.linspace(0, 1, n) for n in n_samples]
-    P = np.concatenate([bezier_points(c, t) for c, t in zip(controls, params)]).astype(np.float32)
-    T = np.concatenate(params)
-    owner = np.repeat(np.arange(len(controls)), n_samples)
+    P, T, owner, _ = curve_samples(controls, ev.grid.voxel, spacing_px)
     gated = None
     if gates is not None and (gates > 0).any():
         gated = np.flatnonzero(gates[owner] > 0)

@@ -239,6 +239,21 @@ def view_maps(image: np.ndarray, mask: np.ndarray, sigma: float = 1.5, sigma_px:
     return ViewMaps(full_lines, response, directions, sdf)
 
 
+def curve_samples(controls: np.ndarray, voxel: float, spacing_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                                np.ndarray]:
+    """Points along cubics ``(N, 4, 3)`` about ``spacing_px`` apart in views where a voxel of ``voxel`` spans a
+    pixel (4 to 4000 a cubic): the points ``float32 (S, 3)``, their parameters ``(S,)``, their cubic ``(S,)`` and
+    each cubic's count ``(N,)``."""
+    from ..strokes.bezier import bezier_points
+
+    rough = bezier_points(controls, np.linspace(0, 1, 9))
+    length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
+    n_samples = np.clip(np.ceil(length / voxel / spacing_px * 1.2).astype(int), 4, 4000)
+    params = [np.linspace(0, 1, n) for n in n_samples]
+    points = np.concatenate([bezier_points(c, t) for c, t in zip(controls, params)]).astype(np.float32)
+    return points, np.concatenate(params), np.repeat(np.arange(len(controls)), n_samples), n_samples
+
+
 def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pixel indices ``(u, v)`` (floor) and depth of world points; float32 math, it is the hot loop."""
     R = cam.R.astype(np.float32)

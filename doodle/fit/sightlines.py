@@ -20,8 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from ..strokes.bezier import bezier_points
-from .evidence import Evidence, _project
+from .evidence import Evidence, _project, curve_samples
 
 MIN_ON_LINES = 0.9
 """A hidden candidate is seen in a view when at least this share of its samples lies within a pixel of the
@@ -56,11 +55,7 @@ def seen_through(controls: np.ndarray, ev: Evidence, max_depth: int = 12, min_on
     if len(controls) == 0:
         return free
     h = ev.grid.voxel
-    rough = bezier_points(controls, np.linspace(0, 1, 9))
-    length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
-    n_samples = np.clip(np.ceil(length / h / spacing_px * 1.2).astype(int), 4, 4000)
-    P = np.concatenate([bezier_points(c, np.linspace(0, 1, n)) for c, n in zip(controls, n_samples)]).astype(np.float32)
-    owner = np.repeat(np.arange(len(controls)), n_samples)
+    P, _, owner, n_samples = curve_samples(controls, h, spacing_px)
     seen_in = np.zeros(len(controls), int)
     sightings = []  # (view, sample ids, their depths, their hull depths)
     for v, cam in enumerate(ev.cameras):
