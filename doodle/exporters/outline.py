@@ -68,7 +68,7 @@ def hull_shell(hull: Voxels) -> tuple[np.ndarray, np.ndarray]:
         ijk = np.argwhere(shell)
         while len(_SHELLS) >= 2:
             _SHELLS.pop(next(iter(_SHELLS)))
-        _SHELLS[key] = (hull.origin + ((ijk - 2) * hull.voxel) @ hull.axes, smooth[shell])
+        _SHELLS[key] = (hull.centres(ijk - 2), smooth[shell])  # the padding shifts the indices by 2
     return _SHELLS[key]
 
 

@@ -104,7 +104,7 @@ def clear_seen(occluder: Voxels, grid: VoxelGrid, free: np.ndarray) -> Voxels:
     ijk = np.argwhere(occluder.occupied)
     if not len(ijk) or not free.any():
         return occluder
-    fine = grid.index(occluder.origin + (ijk * occluder.voxel) @ occluder.axes)
+    fine = grid.index(occluder.centres(ijk))
     inside = np.all((fine >= 0) & (fine < np.array(free.shape)), axis=1)
     seen = np.zeros(len(ijk), bool)
     seen[inside] = free[tuple(fine[inside].T)]

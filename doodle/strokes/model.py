@@ -137,6 +137,10 @@ class Voxels:
     axes: np.ndarray
     occupied: np.ndarray
 
+    def centres(self, ijk: np.ndarray) -> np.ndarray:
+        """World centres ``(P, 3)`` of voxel indices ``(P, 3)``: the inverse of :meth:`coordinates`."""
+        return self.origin + (ijk * self.voxel) @ self.axes
+
     def coordinates(self, points: np.ndarray) -> np.ndarray:
         """Fractional voxel indices ``(..., 3)`` of world points ``(..., 3)`` (voxel centres at integers)."""
         return ((points - self.origin) @ self.axes.T) / self.voxel
