@@ -76,7 +76,7 @@ def cli() -> None:
               help="Write a phone-capture-like COLMAP project instead: JPEGs over a textured floor and wall, "
                    "landscape and portrait (some EXIF-rotated), lens distortion, no masks (--train photos).")
 def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool) -> None:
-    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel) as a NeRF-synthetic folder.
+    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel, teapot, cow) as a NeRF-synthetic folder.
 
     The folder holds RGBA renders from the upper hemisphere, transforms_{train,test}.json and
     ground_truth.json (primitives and visible feature edges). With --capture, a COLMAP project
@@ -329,20 +329,23 @@ def _log(msg: str) -> None:
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
 @click.option("--curves", default="auto", show_default=True, callback=_count_or_auto(4096),
-              help="Bézier curves: 'auto' (discovery chooses how many: up to 128, and up to 128 more "
-                   "for the outline when those fall short) or a maximum.")
+              help="Bézier curves: 'auto' (discovery chooses how many, up to the --detail level's) or a maximum.")
 @click.option("--superquadrics", default="auto", show_default=True, callback=_count_or_auto(64),
               help="Number of superquadrics, or 'auto' (chosen from the data).")
 @click.option("--discover/--no-discover", default=True, show_default=True,
               help="Find curves from multi-view edge evidence (needs masks); --no-discover: the distance-field fit.")
 @click.option("--contours/--no-contours", default=True, show_default=True,
               help="The training views' outlines traced into 3D: view-independent curves where they run along a "
-                   "crease, and (with --no-outline-hull) contour curves drawn where a view grazes them.")
-@click.option("--occluder/--no-occluder", default=True, show_default=True,
-              help="Store the visual hull in the stroke file, to hide what lies behind the object's bulk.")
-@click.option("--outline-hull/--no-outline-hull", default=True, show_default=True,
-              help="Store the fine visual hull in the stroke file: every view draws its outline where the curves "
-                   "leave it undrawn.")
+                   "crease, and (beside superquadrics) contour curves drawn where a view grazes them.")
+@click.option("--detail", type=click.Choice(["low", "medium", "high"]), default="medium", show_default=True,
+              help="Abstraction level: how many curves and superquadrics at most (low 16 + 4, medium 40 + 8, "
+                   "high 128 + 12); every level draws the whole object.")
+@click.option("--outline", type=click.Choice(["superquadrics", "hull"]), default="superquadrics", show_default=True,
+              help="What draws the outline: superquadrics fitted to the object's volume (compact, ~2 kB), or its "
+                   "voxel hull stored in the file (most faithful, 20-45 kB).")
+@click.option("--occluder/--no-occluder", default=None,
+              help="Store a coarse voxel hull that hides what lies behind the object's bulk [default: with "
+                   "--outline hull].")
 @click.option("--evidence-size", type=int, default=512, show_default=True,
               help="Image size (larger side, px) for the 3D edge evidence.")
 @click.option("--evidence-voxels", type=int, default=192, show_default=True,
@@ -367,7 +370,7 @@ def _log(msg: str) -> None:
               help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
                    "(auto); none; or a folder with NAME.png per view.")
 def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discover: bool, contours: bool,
-        occluder: bool, outline_hull: bool, evidence_size: int,
+        detail: str, outline: str, occluder: bool | None, evidence_size: int,
         evidence_voxels: int, iterations: int | None, sq_iterations: int, size: int, views_per_step: int, seed: int,
         device: str, split: str, init: str, objective: str, preview_dir: Path | None, preview_every: int,
         checkpoint_every: int, resume: bool, masks: str) -> None:
@@ -381,7 +384,7 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
     from .strokes import write_strokes
 
     cfg = FitConfig(curves=curves, superquadrics=superquadrics, discover=discover, contours=contours,
-                    occluder=occluder, outline_hull=outline_hull, evidence_size=evidence_size,
+                    detail=detail, outline=outline, occluder=occluder, evidence_size=evidence_size,
                     evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
                     size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
                     init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
@@ -461,7 +464,7 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
 @cli.command()
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("doodle-demo"),
               show_default=True, help="Folder for everything the demo makes.")
-@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel"]), default="snowman", show_default=True)
+@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel", "teapot", "cow"]), default="snowman", show_default=True)
 def demo(out_dir: Path, scene: str) -> None:
     """Run the whole pipeline on a built-in procedural scene: render, fit, export, animate, evaluate."""
     from .demo import run_demo

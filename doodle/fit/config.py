@@ -6,14 +6,38 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal, Union
 
-InitMethod = Literal["auto", "points", "hull", "bbox"]
-
-
-#: With ``curves="auto"``, discovery chooses at most this many by all the lines they draw...
+#: With ``curves="auto"`` and ``detail="high"``, discovery chooses at most this many by all the lines they
+#: draw...
 AUTO_MAX_CURVES = 128
 #: ...and, when those are not enough, up to this many more for the outline alone (see
 #: :func:`doodle.fit.discover.choose_curves`): an object with more lines than the sketch holds is still drawn whole.
 AUTO_OUTLINE_CURVES = 128
+
+InitMethod = Literal["auto", "points", "hull", "bbox"]
+Outline = Literal["superquadrics", "hull"]
+Detail = Literal["low", "medium", "high"]
+
+
+@dataclass(frozen=True)
+class DetailLevel:
+    """What one abstraction level allows: the most curves discovery chooses, the most superquadrics, the least
+    share of the volume's surface a superquadric must add, and the least share of the line pixels the next
+    curve must newly explain. Every level draws the whole object: the superquadrics close the outline of its
+    thick parts, and curves draw its thin parts and sharp edges before any detail."""
+
+    curves: int
+    superquadrics: int
+    superquadric_gain: float
+    curve_gain: float
+
+
+DETAIL_LEVELS: dict[str, DetailLevel] = {
+    "low": DetailLevel(curves=16, superquadrics=4, superquadric_gain=0.03, curve_gain=0.004),
+    "medium": DetailLevel(curves=40, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015),
+    "high": DetailLevel(curves=AUTO_MAX_CURVES, superquadrics=12, superquadric_gain=0.005, curve_gain=0.0005),
+}
+"""``--detail``: at ``medium`` (the default) a stroke file of an object like a teapot or a cow takes under 2 kB."""
+
 
 
 @dataclass
@@ -37,19 +61,23 @@ class FitConfig:
     texture: bool = True
     """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
     printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.texture``)."""
-    occluder: bool = True
-    """Store the visual hull, on a coarse grid, in the stroke file as an occluder: the exporters hide the
-    curves and outlines behind it (with masks only). Occluder-only superquadrics are then not kept."""
-    outline_hull: bool = True
-    """Store the visual hull carved for the evidence (``evidence_voxels`` on its longest side) in the stroke file
-    as its ``hull``: every view draws the outline of its projection where the other strokes leave it undrawn
-    (``doodle.exporters.outline``; with masks only). It draws the outline in every view, which contour curves
-    (``contours``) and the curves added for the outline alone did in the views near the training views: with
-    the hull there are neither, and strokes on smooth faces, which were chosen only for the outline they draw,
-    are not chosen."""
-    discovery_min_gain: float = 0.0005
+    outline: Outline = "superquadrics"
+    """What draws the view-dependent outline. ``"superquadrics"`` (the compact abstraction): superquadrics
+    fitted to the visual hull in 3D (:mod:`doodle.fit.abstraction`), curves where they do not reach; they also
+    hide what lies behind them. ``"hull"`` (the most faithful outline, 20–45 kB): the visual hull carved for
+    the evidence (``evidence_voxels`` on its longest side) is stored in the stroke file and every view draws
+    the outline of its projection where the other strokes leave it undrawn (``doodle.exporters.outline``);
+    strokes on smooth faces, chosen only for the outline they draw, are then not chosen. Masks only."""
+    detail: Detail = "medium"
+    """Abstraction level (:data:`DETAIL_LEVELS`): how many curves and superquadrics at most, and how much each
+    must add. ``curves``, ``max_superquadrics`` and ``discovery_min_gain``, when given, override it."""
+    occluder: bool | None = None
+    """Store the visual hull, on a coarse grid, in the stroke file as an occluder that hides the curves and
+    outlines behind it (with masks only; occluder-only superquadrics are then not kept). ``None``: with the
+    hull's outline only (the superquadrics hide what is behind them, and the file stays small)."""
+    discovery_min_gain: float | None = None
     """Discovery keeps adding strokes while the next one newly explains at least this share of all line
-    pixels over the views."""
+    pixels over the views (``None``: the detail level's)."""
     outline_coverage: float = 0.9
     """``superquadrics="auto"`` fits none when the discovered curves already draw this share of the
     silhouettes' outline pixels; otherwise it fits them and keeps those whose outline is right and new."""
@@ -61,7 +89,8 @@ class FitConfig:
     ``max_superquadrics``, drop those that add less than 2 % silhouette IoU, refit the rest, and drop all if together they
     cannot explain the silhouette."""
     straight_threshold: float = 0.6
-    max_superquadrics: int = 8
+    max_superquadrics: int | None = None
+    """At most this many superquadrics with ``superquadrics="auto"`` (``None``: the detail level's)."""
     iterations: int | None = None
     """Adam steps of the distance-field curve stage: default 0 after discovery (discovered curves are
     already polished on the 3D evidence, which is sharper than the working images), 1500 without it."""
@@ -90,14 +119,43 @@ class FitConfig:
     preview_dir: Path | None = None
 
     @property
+    def level(self) -> DetailLevel:
+        return DETAIL_LEVELS[self.detail]
+
+    @property
+    def outline_hull(self) -> bool:
+        """Whether the fit stores the hull whose outline every view draws (``outline="hull"``)."""
+        return self.outline == "hull"
+
+    @property
+    def use_occluder(self) -> bool:
+        return self.outline_hull if self.occluder is None else bool(self.occluder)
+
+    @property
     def max_curves(self) -> int:
-        return AUTO_MAX_CURVES if self.curves == "auto" else int(self.curves)
+        if self.curves != "auto":
+            return int(self.curves)
+        return AUTO_MAX_CURVES if self.outline_hull else self.level.curves
+
+    @property
+    def sq_limit(self) -> int:
+        """The most superquadrics ``superquadrics="auto"`` fits."""
+        return self.level.superquadrics if self.max_superquadrics is None else int(self.max_superquadrics)
+
+    @property
+    def min_gain(self) -> float:
+        """Discovery's least gain per curve (``discovery_min_gain``, else the detail level's; with the hull's
+        outline, the finest)."""
+        if self.discovery_min_gain is not None:
+            return float(self.discovery_min_gain)
+        return DETAIL_LEVELS["high"].curve_gain if self.outline_hull else self.level.curve_gain
 
     @property
     def outline_curves(self) -> int:
-        """Curves discovery may add for the outline alone once ``max_curves`` are chosen (none for a number, and
-        none when the hull's outline is drawn: it completes the outline)."""
-        return AUTO_OUTLINE_CURVES if self.curves == "auto" and not self.outline_hull else 0
+        """Curves discovery may add for the outline alone once ``max_curves`` are chosen: none for a number,
+        none when the hull's outline is drawn (it completes the outline); beside superquadrics, as many as the
+        detail level's curves (an outline the superquadrics leave open is closed by curves at every level)."""
+        return 0 if self.curves != "auto" or self.outline_hull else self.level.curves
 
     @property
     def curve_iterations(self) -> int:

@@ -39,7 +39,7 @@ FLAT_END = 0.3
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
-               "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "outline_hull")
+               "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "outline", "detail", "occluder")
 
 
 @dataclass
@@ -187,7 +187,7 @@ def grow_superquadrics(interior: np.ndarray, work: Scene, frame: SceneFrame, cfg
     if sq_stage(params, round_steps):
         return params, True
     best = score(params)
-    while len(params) < cfg.max_superquadrics:
+    while len(params) < cfg.sq_limit:
         current = params.to_set()
         candidates = []
         lf = union_log_inside_outside(interior, current.scale, current.shape, current.rotation, current.translation)
@@ -361,7 +361,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     work = working_scene(scene, cfg.size)
     occluder = None
-    if cfg.occluder and work.masks is not None:
+    if cfg.use_occluder and work.masks is not None:
         from .volume import hull_occluder, occluder_voxels
 
         occluder = hull_occluder(work, occluder_voxels(cfg.size))
@@ -401,7 +401,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
                 hull = outline_hull(candidates.evidence.grid, candidates.evidence.occupied)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
-            strong = choose_curves(candidates, cfg.max_curves, STRONG_GAIN, polish=False)
+            strong = choose_curves(candidates, cfg.max_curves, max(STRONG_GAIN, cfg.min_gain), polish=False)
             start, normals, contour, outline = strong.control_points, strong.normals, strong.contour, strong.outline
         interior = surface = None
         method = "evidence"
@@ -418,14 +418,18 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             hull = outline_hull(*carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels))
 
     wants_sq = cfg.superquadrics != 0 and work.masks is not None
+    # The compact abstraction: superquadrics fitted to the volume in 3D draw the outline (fit/abstraction.py)
+    abstracting = wants_sq and discovering and cfg.superquadrics == "auto" and not cfg.outline_hull
     if cfg.superquadrics != 0 and work.masks is None:
         say("superquadrics: the scene has no masks, fitting curves only")
+    elif abstracting:
+        pass
     elif cfg.superquadrics == "auto" and discovering:
         if outline >= cfg.outline_coverage:
             wants_sq = False
             say(f"superquadrics: none (the curves draw {outline:.0%} of the outlines)")
         else:
-            say(f"superquadrics: fitting up to {cfg.max_superquadrics} (the curves draw {outline:.0%} of the outlines)")
+            say(f"superquadrics: fitting up to {cfg.sq_limit} (the curves draw {outline:.0%} of the outlines)")
     elif cfg.superquadrics == "auto" and ck is None:
         from .targets import straightness
 
@@ -434,9 +438,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             wants_sq = False
             say(f"superquadrics: none ({score:.0%} of the image lines are long straight edges: curves draw them)")
         else:
-            say(f"superquadrics: fitting up to {cfg.max_superquadrics} ({score:.0%} of the image lines are straight)")
+            say(f"superquadrics: fitting up to {cfg.sq_limit} ({score:.0%} of the image lines are straight)")
     sq_scene = work
-    if wants_sq and discovering:
+    if wants_sq and discovering and not abstracting:
         from .volume import thick_volume
 
         volume = thick_volume(work, cfg.thin)
@@ -512,7 +516,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         # not: it gives way to the curves where they draw it, and a crisp edge along the outline draws it better.
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio)), occluder) if sq.drawn.any() else None
-        return choose_curves(candidates, cfg.max_curves, cfg.discovery_min_gain, taken, polish=polish,
+        return choose_curves(candidates, cfg.max_curves, cfg.min_gain, taken, polish=polish,
                              outline_curves=cfg.outline_curves, log=log)
 
     def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
@@ -555,7 +559,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     interrupted = False
     if stage == "superquadrics":
-        targets = build_targets(sq_scene, str(device))
+        targets = None if abstracting else build_targets(sq_scene, str(device))
 
         def sq_stage(params: SuperquadricParams, steps: int, label: str = "superquadrics") -> bool:
             objective.begin(targets, frame, gen)
@@ -564,7 +568,19 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                                    cfg.checkpoint_every, previewer("superquadrics"), cfg.preview_every, progress)
             return stopped
 
-        if cfg.superquadrics == "auto":
+        if abstracting:
+            from .abstraction import abstract_volume
+
+            if candidates is not None:
+                grid, occupied = candidates.evidence.grid, candidates.evidence.occupied
+            else:  # resumed: discovery is not repeated, the hull is carved again
+                from .evidence import carve_hull
+
+                grid, occupied = carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels)
+            final_sq = abstract_volume(grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit,
+                                       cfg.level.superquadric_gain, seed=cfg.seed, log=say).superquadrics
+            sq_params = SuperquadricParams.from_set(final_sq)
+        elif cfg.superquadrics == "auto":
             sq_params, interrupted = grow_superquadrics(interior, sq_scene, frame, cfg, sq_stage, rng, device, say,
                                                          gen=gen)
         else:
@@ -578,9 +594,18 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             judge = ([work.cameras[v] for v in judge_views],
                      [object_lines(work.images[v], work.masks[v]) for v in judge_views],
                      [work.masks[v] for v in judge_views])
-            final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
-                                     curves_beside=curves_beside if candidates is not None else None,
-                                     occluder=occluder, hull=hull, log=say)
+            if abstracting:
+                # The abstraction draws the outline: every superquadric draws its own unless it reads as a blob
+                # (most of it off the object's lines); the views then confirm it cell by cell.
+                precision = outline_precision(final_sq, frame, *judge, occluder=occluder)
+                for i in np.flatnonzero(precision < MIN_OUTLINE_PRECISION):
+                    say(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
+                        "of its outline lies on the object's lines)")
+                final_sq = replace(final_sq, outline=precision >= MIN_OUTLINE_PRECISION)
+            else:
+                final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
+                                         curves_beside=curves_beside if candidates is not None else None,
+                                         occluder=occluder, hull=hull, log=say)
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)
             if judge is not None and final_sq.drawn.any():

@@ -123,6 +123,32 @@ class Sphere(Primitive):
 
 
 @dataclass
+class Ellipsoid(Primitive):
+    """Semi-axes ``axes`` along the local x, y, z: a body, a head, a teapot's belly. Smooth: no feature edges."""
+
+    axes: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
+    kind = "ellipsoid"
+
+    def _intersect_local(self, o, d):
+        a = np.asarray(self.axes, float)
+        os_, ds = o / a, d / a  # the unit sphere in scaled coordinates; t is unchanged
+        t0, t1 = _quadratic_roots((ds * ds).sum(-1), 2 * (os_ * ds).sum(-1), (os_ * os_).sum(-1) - 1.0)
+        t = np.nan_to_num(np.where(t0 > 1e-9, t0, np.where(t1 > 1e-9, t1, np.nan)), nan=INF)
+        p = o + np.where(np.isfinite(t), t, 0)[:, None] * d
+        n = p / a**2
+        return t, n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+
+    def _contains_local(self, p, margin):
+        return np.linalg.norm(p / (np.asarray(self.axes, float) + margin), axis=-1) <= 1.0
+
+    def bounding_radius(self):
+        return float(np.max(self.axes))
+
+    def to_dict(self):
+        return {**super().to_dict(), "axes": np.asarray(self.axes, float).tolist()}
+
+
+@dataclass
 class Box(Primitive):
     half: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
     kind = "box"

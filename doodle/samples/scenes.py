@@ -19,7 +19,7 @@ from PIL import Image
 from ..atomic import atomic_folder
 from ..cameras import Camera, look_at
 from ..errors import DoodleError
-from .primitives import Box, Cone, Cylinder, Primitive, Sphere, Torus
+from .primitives import Box, Cone, Cylinder, Ellipsoid, Primitive, Sphere, Torus
 from .raycast import render_rgba
 
 FOV_DEG = 40.0
@@ -114,8 +114,38 @@ def parcel() -> list[Primitive]:
     ]
 
 
+def teapot() -> list[Primitive]:
+    """A teapot: a round body, a lid with a knob, a spout and a ring handle. A compact abstraction draws it as a
+    few superquadrics (body, lid, spout) and curves (the handle), and must draw all four parts at every level."""
+    glaze = (0.78, 0.84, 0.8)
+    return [
+        Ellipsoid(np.array([0.0, 0.0, -0.25]), axes=np.array([0.58, 0.58, 0.42]), color=glaze),
+        Cylinder(np.array([0.0, 0.0, 0.1]), radius=0.3, height=0.08, color=(0.7, 0.76, 0.72)),
+        Sphere(np.array([0.0, 0.0, 0.26]), radius=0.09, color=(0.6, 0.65, 0.62)),
+        Cone(np.array([0.42, 0.0, -0.32]), R=_rot_z_to(np.array([1.0, 0.0, 1.1])), radius=0.13, height=0.62,
+             color=glaze),
+        Torus(np.array([-0.62, 0.0, -0.2]), R=_rot_z_to(np.array([0.0, 1.0, 0.0])), major=0.22, minor=0.05,
+              color=glaze),
+    ]
+
+
+def cow() -> list[Primitive]:
+    """A toy cow facing +x: a body, a head, four stubby legs, two ears and a thin tail. Parts a person names at
+    a glance, which a compact abstraction must keep: a superquadric each for the body, the head and the legs."""
+    hide, dark = (0.92, 0.9, 0.86), (0.3, 0.26, 0.24)
+    legs = [Cylinder(np.array([sx * 0.36, sy * 0.17, -0.72]), radius=0.09, height=0.55, color=dark)
+            for sx in (-1, 1) for sy in (-1, 1)]
+    return [
+        Ellipsoid(np.array([0.0, 0.0, 0.0]), axes=np.array([0.62, 0.3, 0.3]), color=hide),
+        Ellipsoid(np.array([0.74, 0.0, 0.2]), axes=np.array([0.22, 0.15, 0.16]), color=(0.85, 0.8, 0.76)),
+        *legs,
+        *[Ellipsoid(np.array([0.7, sy * 0.2, 0.33]), axes=np.array([0.04, 0.1, 0.04]), color=dark) for sy in (-1, 1)],
+        _rod(np.array([-0.6, 0.0, 0.08]), np.array([-0.75, 0.0, -0.35]), 0.018, dark),
+    ]
+
+
 SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp, "tripod": tripod,
-                                                    "mug": mug, "parcel": parcel}
+                                                    "mug": mug, "parcel": parcel, "teapot": teapot, "cow": cow}
 
 
 def visible_feature_edges(primitives: list[Primitive], max_len: float = 0.04, margin: float = 2e-3) -> np.ndarray:
@@ -208,12 +238,14 @@ def load_ground_truth(scene_dir: str | os.PathLike) -> dict:
 
 
 def primitive_from_dict(d: dict) -> Primitive:
-    kinds = {"sphere": Sphere, "box": Box, "cylinder": Cylinder, "cone": Cone, "torus": Torus}
+    kinds = {"sphere": Sphere, "box": Box, "cylinder": Cylinder, "cone": Cone, "torus": Torus, "ellipsoid": Ellipsoid}
     cls = kinds[d["type"]]
     kw = {"center": np.asarray(d["center"], float), "R": np.asarray(d["rotation_matrix"], float), "color": tuple(d["color"]),
           "print": d.get("print", "")}
     if "half_size" in d:
         kw["half"] = np.asarray(d["half_size"], float)
+    if "axes" in d:
+        kw["axes"] = np.asarray(d["axes"], float)
     for key in ("radius", "height", "major", "minor"):
         if key in d:
             kw[key] = float(d[key])

@@ -1,0 +1,342 @@
+"""Superquadric abstraction of the object's volume, fitted in 3D to the carved visual hull.
+
+The paper fits superquadrics to the training silhouettes by rendering them; that needs many steps and finds
+one ball where a cow has a body, a head and four legs. Here the fit already holds the object's volume (the
+visual hull the evidence is carved on), so the superquadrics are fitted to it directly, the way
+Marching-Primitives (CVPR 2023) and EMS (CVPR 2022) recover them from a distance field:
+
+1. The hull is brought to a coarse grid (:data:`WORK_VOXELS` on its longest side) and its *thick part*
+   kept (:func:`thick_part`: opened by a few percent of its size; thin parts stay curves).
+2. The thick part is split into parts where it narrows: a watershed of its distance to the outside, from
+   the h-maxima of that distance (a body and a head meet at a neck, a leg at a narrowing).
+3. One superquadric per part, from the part's principal axes, is fitted to the occupancy around it: the
+   part's voxels inside, the empty voxels outside, the other parts' voxels weakly outside (overlap is
+   allowed, a blob over two parts is not). The occupancy of a point is a sigmoid of its *radial distance*
+   ``|x| (1 − f^(−ε₁/2))`` to the surface, which is metric (a voxel is a voxel whatever the shape).
+4. Parts are taken largest first while each adds at least ``min_gain`` of the thick part's volume to the
+   union's IoU (the count is chosen by the volume, not given); a superquadric that explains its own part
+   poorly (IoU under :data:`MIN_PART_IOU`) is left out, and its part is left to the curves.
+5. The kept ones are refined together on the union's occupancy (a soft maximum over them).
+
+Everything is numpy in, numpy out; torch does the fitting (CPU, about a second on a cow).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import torch
+from scipy import ndimage
+
+from ..strokes.model import SuperquadricSet
+from ..strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
+
+#: Voxels along the longest side of the grid the superquadrics are fitted on.
+WORK_VOXELS = 96
+#: A superquadric whose IoU with its own part is below this does not draw it (curves do).
+MIN_PART_IOU = 0.55
+#: Two neighbouring parts are one when a single superquadric explains them with at least this IoU.
+MERGE_IOU = 0.85
+#: Weight of the other parts' voxels as "outside" for a part's own superquadric (overlap is cheap).
+OTHER_PART_WEIGHT = 0.1
+SHAPE_LO, SHAPE_HI = 0.1, 1.9
+#: The starts of each part's superquadric: shape ``(ε₁, ε₂)``, frame (the part's principal axes, or the grid's,
+#: which are fitted to the object's box: a square plate's principal axes are any two in its plane) and the
+#: factor from a variance along an axis to the half-size (5 for a ball, 3 for a box).
+STARTS = (((1.0, 1.0), "principal", 5.0), ((0.25, 1.0), "principal", 4.0), ((0.25, 0.25), "principal", 3.0),
+          ((0.25, 0.25), "grid", 3.0), ((0.25, 1.0), "grid", 4.0))
+
+
+@dataclass
+class Abstraction:
+    """The superquadrics of a volume and how well they explain it."""
+
+    superquadrics: SuperquadricSet
+    iou: float
+    """IoU of the union with the thick part, on the working grid."""
+    parts: int
+    """Parts the thick part was split into (some may be left to curves)."""
+    thick_share: float
+    """Share of the hull's volume in its thick part."""
+
+
+def thick_part(occupied: np.ndarray, radius: int) -> np.ndarray:
+    """The thick part of a voxel volume: opened by a ball of ``radius`` voxels, with the small pieces the
+    opening took back when they are slivers of a thick part (they touch it: a box keeps its corners) or small
+    compact parts of their own (at least ``radius / 2`` deep: a knob, a bulb), whose outlines no curve draws.
+    A thin part seen at a few pixels across carves into loose fragments, each small: those stay out.
+    """
+    r = max(int(radius), 1)
+    ball = np.linalg.norm(np.mgrid[-r:r + 1, -r:r + 1, -r:r + 1], axis=0) <= r + 0.5
+    opened = ndimage.binary_opening(occupied, structure=ball)
+    labels, _ = ndimage.label(occupied & ~opened)
+    depth = ndimage.distance_transform_edt(occupied)
+    kept = opened.copy()
+    for k, box in enumerate(ndimage.find_objects(labels), start=1):
+        if box is None or np.linalg.norm([b.stop - b.start for b in box]) >= 6 * r:
+            continue
+        near = tuple(slice(max(b.start - 1, 0), b.stop + 1) for b in box)
+        piece = labels[near] == k
+        if (ndimage.binary_dilation(piece) & kept[near]).any() or depth[near][piece].max() >= 0.5 * r:
+            opened[near] |= piece
+    return opened
+
+
+def coarsen(occupied: np.ndarray, max_voxels: int) -> tuple[np.ndarray, int]:
+    """``occupied`` on a grid ``k`` times coarser (blocks at least half full), ``k`` the smallest factor that
+    brings the longest side to ``max_voxels`` or fewer. Block ``(i, j, k)``'s centre is fine voxel
+    ``k·(i, j, k) + (k − 1)/2``."""
+    k = max(1, int(np.ceil(max(occupied.shape) / max_voxels)))
+    if k == 1:
+        return occupied.copy(), 1
+    pad = [(0, (-s) % k) for s in occupied.shape]
+    a = np.pad(occupied, pad).astype(np.float32)
+    X, Y, Z = (s // k for s in a.shape)
+    return a.reshape(X, k, Y, k, Z, k).mean(axis=(1, 3, 5)) >= 0.5, k
+
+
+def split_parts(thick: np.ndarray, h: float = 0.2) -> np.ndarray:
+    """Labels ``int (X, Y, Z)`` (0 outside) of the parts of ``thick``: a watershed of the distance to the
+    outside from its h-maxima (maxima standing at least ``h`` × the largest distance, and a voxel, above their
+    surroundings), so parts meet where the volume narrows by that much. Splitting too little costs nothing
+    (what one superquadric leaves is split again); splitting too much draws a seam across a body (a mug's
+    body in two stacked halves at ``h`` of a voxel)."""
+    from skimage.morphology import h_maxima
+    from skimage.segmentation import watershed
+
+    dist = ndimage.distance_transform_edt(np.pad(thick, 1))[1:-1, 1:-1, 1:-1]
+    markers, _ = ndimage.label(h_maxima(dist, max(1.0, h * float(dist.max()))) & thick)
+    if markers.max() == 0:
+        markers, _ = ndimage.label(thick)
+    return watershed(-dist, markers, mask=thick)
+
+
+def _initial(points: np.ndarray, frame: np.ndarray | None, factor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scale, quaternion and centre of a shape with the points' second moments along ``frame`` (columns: its
+    axes; ``None``: the principal axes). A solid ellipsoid's variance along a half-axis ``a`` is ``a²/5``, a
+    box's ``a²/3``: ``factor``."""
+    c = points.mean(axis=0)
+    if frame is None:
+        cov = np.cov((points - c).T) + 1e-9 * np.eye(3)
+        frame = np.linalg.eigh(cov)[1]
+    frame = frame.copy()
+    if np.linalg.det(frame) < 0:
+        frame[:, 0] = -frame[:, 0]
+    var = (((points - c) @ frame) ** 2).mean(axis=0)
+    return np.sqrt(np.maximum(var, 1e-12) * factor), matrix_to_quaternion(frame), c
+
+
+class _Params(torch.nn.Module):
+    """Unconstrained superquadric parameters: log scale, logit shape on [0.1, 1.9], quaternion, centre."""
+
+    def __init__(self, scale: np.ndarray, shape: np.ndarray, rotation: np.ndarray, translation: np.ndarray):
+        super().__init__()
+        f32 = dict(dtype=torch.float32)
+        s = np.clip((shape - SHAPE_LO) / (SHAPE_HI - SHAPE_LO), 1e-3, 1 - 1e-3)
+        self.log_scale = torch.nn.Parameter(torch.tensor(np.log(scale), **f32))
+        self.raw_shape = torch.nn.Parameter(torch.tensor(np.log(s / (1 - s)), **f32))
+        self.rotation = torch.nn.Parameter(torch.tensor(rotation, **f32))
+        self.translation = torch.nn.Parameter(torch.tensor(translation, **f32))
+
+    def values(self):
+        shape = SHAPE_LO + (SHAPE_HI - SHAPE_LO) * torch.sigmoid(self.raw_shape)
+        return self.log_scale.exp(), shape, self.rotation / self.rotation.norm(dim=-1, keepdim=True), self.translation
+
+    def to_set(self) -> SuperquadricSet:
+        scale, shape, q, t = (v.detach().double().numpy() for v in self.values())
+        q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
+        return SuperquadricSet(scale, np.clip(shape, SHAPE_LO, SHAPE_HI), q, t)
+
+
+def radial_distance(points: torch.Tensor, scale, shape, rotation, translation) -> torch.Tensor:
+    """Approximate signed distance ``(M, P)`` of world points ``(P, 3)`` (or ``(M, P, 3)``, each superquadric
+    its own points) to each superquadric: along the ray from its centre, ``|x| (1 − f^(−ε₁/2))`` (negative
+    inside). Exact for a sphere; for others it errs by the angle between the ray and the normal."""
+    R = quaternion_to_matrix(rotation)
+    d = (points[None] if points.dim() == 2 else points) - translation[:, None, :]
+    x = d @ R
+    lf = log_inside_outside(x, scale, shape)
+    r = x.norm(dim=-1)
+    return r * (1 - torch.exp((-0.5 * shape[:, None, 0] * lf).clamp(max=30.0)))
+
+
+#: Inside voxels farther than this many voxels outside a superquadric stop pulling on it: a part's own
+#: superquadric is not dragged over a leg the part's split left attached (EMS's outliers, in one line).
+TRUNCATE_VOXELS = 3.0
+
+
+def _loss(d: torch.Tensor, target: torch.Tensor, weight: torch.Tensor, tau: float) -> torch.Tensor:
+    """Class-balanced logistic loss of signed distances ``d`` (per row: inside and outside weigh the same, so
+    a thin part is not shrunk away), with the inside term truncated at :data:`TRUNCATE_VOXELS`."""
+    sp = torch.nn.functional.softplus
+    inside = sp(d / tau).clamp(max=float(np.log1p(np.exp(TRUNCATE_VOXELS * 0.5 / 0.5))))
+    outside = sp(-d / tau)
+    pos, neg = weight * target, weight * (1 - target)
+    lp = (pos * inside).sum(-1) / pos.sum(-1).clamp_min(1e-6)
+    ln = (neg * outside).sum(-1) / neg.sum(-1).clamp_min(1e-6)
+    return lp + ln
+
+
+def _optimise(params: _Params, loss_fn: Callable[[], torch.Tensor], steps: int, lr: float) -> None:
+    groups = [{"params": [params.log_scale, params.raw_shape, params.rotation], "lr": lr},
+              {"params": [params.translation], "lr": lr * float(params.log_scale.detach().exp().mean())}]
+    opt = torch.optim.Adam(groups)
+    base = [g["lr"] for g in opt.param_groups]
+    for step in range(steps):
+        for g, lr0 in zip(opt.param_groups, base):
+            g["lr"] = lr0 * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / steps)))  # cosine to 10 %
+        opt.zero_grad()
+        loss = loss_fn().sum()  # rows are independent problems
+        loss.backward()
+        opt.step()
+
+
+def _distance(points: np.ndarray, sq: SuperquadricSet) -> np.ndarray:
+    """:func:`radial_distance` ``(M, P)`` of world points ``(P, 3)`` to a superquadric set, in numpy."""
+    with torch.no_grad():
+        t = [torch.from_numpy(np.asarray(a, np.float32)) for a in (sq.scale, sq.shape, sq.rotation, sq.translation)]
+        return radial_distance(torch.from_numpy(points.astype(np.float32)), *t).numpy()
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied: np.ndarray, thin: float = 0.06,
+                    max_count: int = 8, min_gain: float = 0.01, steps: int = 100, seed: int = 0,
+                    log: Callable[[str], None] = lambda m: None) -> Abstraction:
+    """Superquadrics that abstract the volume ``occupied`` (see the module doc).
+
+    Args:
+        origin, voxel, axes: the grid (voxel ``(i, j, k)``'s centre is ``origin + (i, j, k)·voxel @ axes``).
+        occupied: ``bool (X, Y, Z)``, the visual hull.
+        thin: parts thinner than this share of the volume's box diagonal are left to curves.
+        max_count: at most this many superquadrics.
+        min_gain: a superquadric is kept when it raises the union's IoU with the thick part by this much.
+        steps: Adam steps of each fit (per part, then together).
+    """
+    rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)
+    coarse, k = coarsen(occupied, WORK_VOXELS)
+    cvox = voxel * k
+    c_origin = origin + ((k - 1) / 2 * voxel) * axes.sum(axis=0)
+    ijk_all = np.argwhere(coarse)
+    if len(ijk_all) < 8:
+        return Abstraction(SuperquadricSet(), 0.0, 0, 0.0)
+    diag = cvox * float(np.linalg.norm(ijk_all.max(axis=0) - ijk_all.min(axis=0) + 1))
+    radius = max(1, int(round(0.5 * thin * diag / cvox)))
+    thick = thick_part(coarse, radius)
+    thick_share = float(thick.sum() / max(coarse.sum(), 1))
+    if thick.sum() < 8:
+        log("superquadrics: the volume has no thick part; curves only")
+        return Abstraction(SuperquadricSet(), 0.0, 0, thick_share)
+    care = ~(coarse & ~thick)  # thin parts are nobody's: neither inside nor outside
+    cells = np.argwhere(care)
+    centres = c_origin + (cells * cvox) @ axes
+    in_thick = thick[tuple(cells.T)]
+    # A part's worth is the share of the thick part's surface it explains, not of its volume: a spout or a
+    # knob holds 1-2 % of a teapot's volume and draws a good part of its outline.
+    shell = (thick & ~ndimage.binary_erosion(thick))[tuple(cells.T)]
+    tau = 0.5 * cvox
+    found: list[SuperquadricSet] = []
+    union = np.zeros(len(cells), bool)  # within a voxel of the union
+    best, parts, tried = 0.0, 0, np.zeros(thick.shape, bool)
+    # Marching-Primitives' loop: split what is not yet explained into parts, fit the largest, repeat.
+    while len(found) < max_count and parts < 2 * max_count:
+        covered = np.zeros(thick.shape, bool)
+        covered[tuple(cells[union].T)] = True
+        residual = thick & ~covered & ~tried
+        residual = ndimage.binary_opening(residual)  # slivers along a surface are no part
+        if residual.sum() < 8:
+            break
+        labels = split_parts(residual)
+        sizes = np.bincount(labels.ravel())[1:]
+        part = int(np.argmax(sizes)) + 1
+        parts += 1
+        mine = labels == part
+        sq, own_iou = _fit_part(mine, thick, covered, care, c_origin, cvox, axes, tau, radius, steps, rng)
+        # The split may cut one body in two (a mug's, at a bulge of its hull): one superquadric over the part
+        # and its largest neighbour wins when it explains both about as well as the part's own does one.
+        touching = np.unique(labels[ndimage.binary_dilation(mine) & ~mine])
+        touching = touching[touching > 0]
+        if len(touching):
+            other = touching[np.argmax(sizes[touching - 1])]
+            both = mine | (labels == other)
+            sq2, iou2 = _fit_part(both, thick, covered, care, c_origin, cvox, axes, tau, radius, steps, rng)
+            if iou2 >= max(MERGE_IOU, own_iou - 0.03):
+                sq, own_iou, mine = sq2, iou2, both
+        d = _distance(centres, sq)[0]
+        trial = union | (d <= cvox)
+        gain = (trial & shell).sum() / max(shell.sum(), 1) - best
+        if own_iou < MIN_PART_IOU or gain < min_gain:
+            log(f"superquadrics: a part of {int(mine.sum())} voxels left to curves (its superquadric "
+                + (f"explains {own_iou:.0%} of it)" if own_iou < MIN_PART_IOU else f"adds {gain:.1%} of the surface)"))
+            tried |= mine
+            continue
+        found.append(sq)
+        union, best = trial, best + gain
+    if not found:
+        return Abstraction(SuperquadricSet(), 0.0, parts, thick_share)
+    sq = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in found]) for a in ("scale", "shape", "rotation",
+                                                                                    "translation")))
+    sq = _refine_union(sq, centres, in_thick, tau, steps, rng)
+    iou = _iou((_distance(centres, sq) <= 0).any(axis=0), in_thick)
+    log(f"superquadrics: {len(sq)} abstract the volume (IoU {iou:.3f} with its thick part, {thick_share:.0%} of "
+        "the hull)")
+    return Abstraction(sq, iou, parts, thick_share)
+
+
+def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np.ndarray, origin: np.ndarray,
+              voxel: float, axes: np.ndarray, tau: float, grow: int, steps: int, rng: np.random.Generator,
+              max_points: int = 2500) -> tuple[SuperquadricSet, float]:
+    """One superquadric for the part ``mine``: its voxels inside, the empty voxels around it outside, the rest
+    of the thick part weakly outside, what is already explained (``covered``) and thin parts not at all.
+    Returns it and its IoU with the part (what it holds of the part, over the part and the empty voxels it
+    spills into)."""
+    ijk = np.argwhere(mine)
+    lo = np.maximum(ijk.min(axis=0) - 2 * grow, 0)
+    hi = np.minimum(ijk.max(axis=0) + 2 * grow + 1, mine.shape)
+    box = tuple(slice(a, b) for a, b in zip(lo, hi))
+    sub = np.argwhere(care[box] & ~(covered[box] & ~mine[box])) + lo
+    at = tuple(sub.T)
+    target = mine[at].astype(np.float32)
+    weight = np.where(mine[at], 1.0, np.where(thick[at], OTHER_PART_WEIGHT, 1.0)).astype(np.float32)
+    if len(sub) > max_points:
+        pick = rng.choice(len(sub), max_points, replace=False)
+        sub, target, weight = sub[pick], target[pick], weight[pick]
+    to_world = lambda a: origin + (a * voxel) @ axes  # noqa: E731
+    # Adam does not square a rounded cross-section by itself (a mug's body fitted from a ball comes out as two
+    # stacked pills): each part starts as a ball, a cylinder and a box (:data:`STARTS`), fitted at once, and
+    # the best is kept.
+    pts = to_world(ijk.astype(np.float64))
+    starts = [_initial(pts, axes.T if frame == "grid" else None, factor) for _, frame, factor in STARTS]
+    params = _Params(np.array([a for a, _, _ in starts]), np.array([e for e, _, _ in STARTS]),
+                     np.array([q for _, q, _ in starts]), np.array([c for _, _, c in starts]))
+    P = torch.from_numpy(to_world(sub.astype(np.float64)).astype(np.float32))
+    T, W = torch.from_numpy(target)[None], torch.from_numpy(weight)[None]
+    _optimise(params, lambda: _loss(radial_distance(P, *params.values()), T, W, tau), steps, 0.03)
+    with torch.no_grad():
+        best = int(torch.argmin(_loss(radial_distance(P, *params.values()), T, W, tau)))
+    sq = params.to_set().subset(np.array([best]))
+    inside = _distance(to_world(ijk.astype(np.float64)), sq)[0] <= 0
+    spill = _distance(to_world(np.argwhere(~thick[box] & care[box]) + lo), sq)[0] <= 0
+    return sq, float(inside.sum() / (len(ijk) + spill.sum()))
+
+
+def _refine_union(sq: SuperquadricSet, centres: np.ndarray, in_thick: np.ndarray, tau: float, steps: int,
+                  rng: np.random.Generator, max_points: int = 30000) -> SuperquadricSet:
+    """All superquadrics together on the union's occupancy against the thick part."""
+    sel = rng.choice(len(centres), min(len(centres), max_points), replace=False)
+    C = torch.from_numpy(centres[sel].astype(np.float32))
+    Y = torch.from_numpy(in_thick[sel].astype(np.float32))[None]
+    joint = _Params(sq.scale, sq.shape, sq.rotation, sq.translation)
+
+    def loss() -> torch.Tensor:
+        d = radial_distance(C, *joint.values())  # (M, P)
+        soft_min = -tau * torch.logsumexp(-d / tau, dim=0)  # the union's distance, smoothly
+        return _loss(soft_min[None], Y, torch.ones_like(Y), tau).sum()
+
+    _optimise(joint, loss, steps, 0.01)
+    return joint.to_set()
