@@ -16,6 +16,7 @@ import click
 
 from . import __version__
 from .errors import DoodleError
+from .fit.config import DETAIL_LEVELS
 
 
 class UserError(click.ClickException):
@@ -338,8 +339,9 @@ def _log(msg: str) -> None:
               help="The training views' outlines traced into 3D: view-independent curves where they run along a "
                    "crease, and (beside superquadrics) contour curves drawn where a view grazes them.")
 @click.option("--detail", type=click.Choice(["low", "medium", "high"]), default="medium", show_default=True,
-              help="Abstraction level: how many curves and superquadrics at most (low 16 + 4, medium 40 + 8, "
-                   "high 128 + 12); every level draws the whole object.")
+              help="Abstraction level: how many curves + superquadrics at most ("
+                   + ", ".join(f"{k} {v.curves} + {v.superquadrics}" for k, v in DETAIL_LEVELS.items())
+                   + "); every level draws the whole object.")
 @click.option("--outline", type=click.Choice(["superquadrics", "hull"]), default="superquadrics", show_default=True,
               help="What draws the outline: superquadrics fitted to the object's volume (compact, ~2 kB), or its "
                    "voxel hull stored in the file (most faithful, 20-45 kB).")

@@ -86,8 +86,9 @@ def read_abc_ground_truth(folder: str | Path, spacing: float = SPACING) -> Groun
             norm = json.loads(norm_path.read_text(encoding="utf-8"))
             scale = float(norm["scale"])
             offset = np.asarray(norm["offset"], dtype=np.float64).reshape(3)
-        except (ValueError, KeyError, TypeError, OSError) as exc:
-            raise DoodleError(f"{norm_path}: expected 'scale' (number) and 'offset' (3 numbers) ({exc})") from None
+        except (ValueError, KeyError, TypeError, OSError, OverflowError, RecursionError) as exc:
+            raise DoodleError(f"{norm_path}: expected 'scale' (number) and 'offset' (3 numbers) "
+                              f"({str(exc).splitlines()[0][:80]})") from None
         if not (np.isfinite(scale) and scale > 0 and np.isfinite(offset).all()):
             raise DoodleError(f"{norm_path}: scale must be positive and finite, offset finite")
     path = folder / "features.yml"

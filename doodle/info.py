@@ -2,11 +2,30 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from .strokes import StrokeSet, dumps, read_strokes
+from .strokes import CurveSet, StrokeSet, SuperquadricSet, dumps, read_strokes
 from .strokes.binary import encode
+
+
+def binary_cost(strokes: StrokeSet) -> dict[str, int]:
+    """Bytes of the binary encoding that each part of a stroke set costs: what the file loses without it
+    (curves with their normals and gates, superquadrics with their outline flags and cells, each voxel volume,
+    the provenance), and the rest (header, frame, quantisation, trailer length)."""
+    total = len(encode(strokes))
+    without = {
+        "curves": replace(strokes, curves=CurveSet(width_px=strokes.curves.width_px)),
+        "superquadrics": replace(strokes, superquadrics=SuperquadricSet()),
+        "hull": replace(strokes, hull=None),
+        "occluder": replace(strokes, occluder=None),
+        "provenance": replace(strokes, provenance={}, extra={}),
+    }
+    cost = {name: total - len(encode(s)) for name, s in without.items()}
+    cost["header"] = total - sum(cost.values())
+    cost["total"] = total
+    return cost
 
 
 def describe(path: str | Path) -> dict[str, Any]:
@@ -26,7 +45,8 @@ def describe(path: str | Path) -> dict[str, Any]:
                                            "occupied": int(vol.occupied.sum())}
            for name, vol in (("occluder", strokes.occluder), ("hull", strokes.hull))},
         "bounding_box": {"min": [round(float(v), 4) for v in lo], "max": [round(float(v), 4) for v in hi]},
-        "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes))},
+        "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes)),
+                  "binary_parts": binary_cost(strokes)},
         "scene": {"up": [round(float(v), 4) for v in f.up], "center": [round(float(v), 4) for v in f.center],
                   "radius": round(float(f.radius), 4)},
         "provenance": strokes.provenance,
@@ -50,6 +70,8 @@ def format_description(info: dict[str, Any]) -> str:
         f"  bounding box    {bb['min']} .. {bb['max']}",
         f"  scene           center {info['scene']['center']}, radius {info['scene']['radius']}, up {info['scene']['up']}",
         f"  size            {info['bytes']['file']} B on disk; JSON {info['bytes']['json']} B, binary {info['bytes']['binary']} B",
+        "  binary parts    " + ", ".join(f"{k} {v} B" for k, v in info["bytes"]["binary_parts"].items()
+                                         if k != "total" and v),
     ]
     for k, v in info["provenance"].items():
         lines.append(f"  {_printable(k):<15} {_printable(v)}")

@@ -33,11 +33,12 @@ def test_every_command_has_help_and_is_documented(runner):
         assert re.search(rf"doodle {name}\b", readme), f"`doodle {name}` missing from README"
 
 
-def test_fit_help_gives_the_automatic_curve_budget(runner):
-    from doodle.fit.config import AUTO_MAX_CURVES, AUTO_OUTLINE_CURVES
+def test_fit_help_gives_each_detail_levels_budget(runner):
+    from doodle.fit.config import DETAIL_LEVELS
 
     text = " ".join(runner.invoke(cli, ["fit", "--help"]).output.split())
-    assert f"up to {AUTO_MAX_CURVES}, and up to {AUTO_OUTLINE_CURVES} more for the outline" in text
+    for name, level in DETAIL_LEVELS.items():
+        assert f"{name} {level.curves} + {level.superquadrics}" in text
 
 
 def test_info_and_json(runner, tmp_path):

@@ -150,7 +150,8 @@ class TestShortFits:
         """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
         drawn (some may stay as occluders), and the curves carry face normals for hidden-line removal."""
         logs = []
-        res = fit(load_scene(chair_dir), FitConfig(sq_iterations=40, **QUICK), progress=False, log=logs.append)
+        res = fit(load_scene(chair_dir), FitConfig(sq_iterations=40, outline="hull", **QUICK), progress=False,
+                  log=logs.append)
         s = res.strokes
         assert not s.superquadrics.drawn.any() and len(s.curves) >= 12
         assert s.occluder is not None and s.occluder.occupied.any()  # the hull hides what superquadrics no longer do
@@ -162,7 +163,7 @@ class TestShortFits:
     def test_the_evidence_hull_draws_the_held_out_outlines(self, chair_dir):
         """The fit stores the evidence's hull, and its outline draws the held-out views' outlines, which the
         curves alone leave in gaps; there are no contour curves beside it."""
-        cfg = FitConfig(superquadrics=0, **QUICK)
+        cfg = FitConfig(superquadrics=0, outline="hull", **QUICK)
         s = fit(load_scene(chair_dir), cfg, progress=False, log=lambda m: None).strokes
         assert s.hull is not None and s.hull.occupied.any() and not (s.curves.gates > 0).any()
         test = load_scene(chair_dir, split="test")
@@ -227,7 +228,7 @@ class TestCheckpoints:
     def test_resume_keeps_the_contour_curves(self, snowman_dir, tmp_path, monkeypatch):
         """Discovery is not repeated on resume: the contour curves and their gates come from the checkpoint."""
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, outline_hull=False, **QUICK)
+        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.curves
@@ -241,7 +242,7 @@ class TestCheckpoints:
     def test_resume_keeps_the_hull(self, snowman_dir, tmp_path, monkeypatch):
         """The hull whose outline is drawn is the evidence's: a resumed fit reads it from the checkpoint."""
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        cfg = FitConfig(superquadrics=0, iterations=30, outline="hull", **QUICK)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.hull
@@ -262,7 +263,7 @@ class TestCheckpoints:
             return free
 
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        cfg = FitConfig(superquadrics=0, iterations=30, outline="hull", **QUICK)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         monkeypatch.setattr(discover, "seen_through", top_half)
@@ -273,20 +274,17 @@ class TestCheckpoints:
         done = fit(scene, cfg, checkpoint=ckpt, resume=True, progress=False, log=lambda m: None).strokes.occluder
         assert np.array_equal(done.occupied, first.occupied)
 
-    def test_resume_keeps_which_outlines_are_drawn_and_where(self, tripod_dir, tmp_path, monkeypatch):
+    def test_resume_keeps_which_outlines_are_drawn_and_where(self, snowman_dir, tmp_path, monkeypatch):
         """Interrupted in the curve stage after the superquadrics are settled, a fit resumes with the same
         superquadrics, the same drawn outlines and the same outline cells."""
         from doodle.fit.pipeline import _superquadrics_from_checkpoint
 
-        scene = load_scene(tripod_dir)
-        # without contour curves the head is drawn by its superquadric; without the hull occluder the others
-        # stay to hide what is behind them, undrawn
-        cfg = FitConfig(iterations=30, sq_iterations=40, contours=False, occluder=False, outline_hull=False,
-                        **{**QUICK, "size": 128})
+        scene = load_scene(snowman_dir)
+        cfg = FitConfig(iterations=30, sq_iterations=40, contours=False, **{**QUICK, "size": 128})
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.superquadrics
-        assert first.drawn.any() and not first.drawn.all()
+        assert first.drawn.any()
         stored = _superquadrics_from_checkpoint(torch.load(ckpt, weights_only=True)["final_superquadrics"])
         assert np.array_equal(stored.drawn, first.drawn) and np.allclose(stored.scale, first.scale)
         # Cells round-trip through the checkpoint's tensors whatever this small fit confirmed.
@@ -360,17 +358,20 @@ class TestCli:
         assert r.exit_code == 0, r.output
         assert "line precision" in r.output and json.loads((tmp_path / "m.json").read_text())["views"] == 4
 
-    def test_the_hull_contours_and_occluder_can_be_left_out(self, snowman_dir, tmp_path):
+    def test_the_outline_option_the_contours_and_the_occluder(self, snowman_dir, tmp_path):
         small = ["--superquadrics", "0", "--size", "64", "--evidence-size", "128", "--evidence-voxels", "64"]
         found = {}
-        for flags in ([], ["--no-outline-hull"], ["--no-outline-hull", "--no-contours", "--no-occluder"]):
-            out = tmp_path / f"s{len(flags)}.doodle"
+        for flags in ([], ["--no-contours"], ["--outline", "hull"], ["--outline", "hull", "--no-occluder"],
+                      ["--occluder"]):
+            out = tmp_path / f"s{len(found)}.doodle"
             r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *small, *flags])
             assert r.exit_code == 0, r.output
             s = read_strokes(out)
-            found[len(flags)] = (s.hull is not None, s.occluder is not None, bool((s.curves.gates > 0).any()))
-        # the hull's outline draws what contour curves would: with it there are none
-        assert found == {0: (True, True, False), 1: (False, True, True), 3: (False, False, False)}
+            found[" ".join(flags)] = (s.hull is not None, s.occluder is not None, bool((s.curves.gates > 0).any()))
+        # the hull's outline draws what contour curves would: with it there are none; the occluder comes with it
+        assert found == {"": (False, False, True), "--no-contours": (False, False, False),
+                         "--outline hull": (True, True, False), "--outline hull --no-occluder": (True, False, False),
+                         "--occluder": (False, True, True)}
 
     def test_fit_bad_scene(self, tmp_path):
         r = CliRunner().invoke(cli, ["fit", str(tmp_path / "nope"), "-o", str(tmp_path / "x.doodle")])

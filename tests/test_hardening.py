@@ -459,19 +459,24 @@ def _copy_scene(src: Path, dst: Path, own: str) -> Path:
     return dst
 
 
-def _load_broken_copy(kind: str, own: str, spoil) -> None:
-    """Copy the ``kind`` template, let ``spoil(path)`` break its file ``own``, and load it: the scene loads with
-    a sane frame, or the reader gives one line; never a hang or a crash."""
+def _load_broken_copy(kind: str, own: str, spoil, cameras_only: bool = False) -> None:
+    """Copy the ``kind`` template, let ``spoil(path)`` break its file ``own``, and load it (or, with
+    ``cameras_only``, only its cameras, as ``doodle export --cameras`` does): the scene loads with a sane frame,
+    or the reader gives one line; never a hang or a crash."""
     import shutil
     import tempfile
 
-    from doodle.scenes import load_scene
+    from doodle.scenes import load_cameras, load_scene
 
     tmp = Path(tempfile.mkdtemp(prefix="doodle-fuzz-case-"))
     try:
         scene = _copy_scene(_template(kind), tmp / "s", own)
         spoil(scene / own)
         try:
+            if cameras_only:
+                cams = load_cameras(scene, "train")
+                assert all(np.isfinite(c.R).all() and np.isfinite(c.t).all() for c in cams)
+                return
             s = load_scene(scene)
         except SceneError as exc:
             assert "\n" not in str(exc)
@@ -518,6 +523,49 @@ def test_fuzz_transforms_reader(data):
     """A random field of a valid transforms file replaced by random JSON: the scene loads, or one line."""
 
     _load_broken_copy("nerf", "transforms_train.json", lambda path: _replace_a_field(path, data))
+
+
+#: JSON values a reader must also survive: integers too large for a float, arrays nested past the recursion limit.
+hostile_json = json_values | st.integers(min_value=10**300, max_value=10**500) | st.just("DEEP")
+
+
+def _deep(text: str) -> str:
+    """``text`` with each ``"DEEP"`` string replaced by arrays nested a hundred thousand deep."""
+    return text.replace('"DEEP"', "[" * 100_000 + "]" * 100_000)
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_transforms_camera_reader(data):
+    """The camera-only reader (``doodle export --cameras``) has the full reader's checks: a random field replaced
+    by random, huge or deeply nested JSON reads, or gives one line."""
+
+    def spoil(path: Path) -> None:
+        _replace_a_field(path, data, field_values=hostile_json)
+        path.write_text(_deep(path.read_text()))
+
+    _load_broken_copy("nerf", "transforms_train.json", spoil, cameras_only=True)
+
+
+@pytest.mark.parametrize("matrix, message", [
+    ("[[1" + "0" * 400 + ", 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]", "transform_matrix"),
+    ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+])
+def test_export_cameras_with_hostile_numbers_is_one_line(strokes, tmp_path, matrix, message):
+    """The issue's two reproducers: an integer too large for a float, and arrays nested 100,000 deep, in the
+    cameras ``doodle export --cameras`` reads: exit 2, one line naming the file, no traceback."""
+    scene = tmp_path / "scene"
+    (scene / "test").mkdir(parents=True)
+    Image.new("RGBA", (16, 16)).save(scene / "test" / "r_0.png")
+    (scene / "transforms_test.json").write_text(
+        '{"camera_angle_x": 0.7, "frames": [{"file_path": "./test/r_0", "transform_matrix": ' + matrix + "}]}")
+    src = tmp_path / "s.doodle"
+    write_strokes(src, strokes)
+    r = CliRunner().invoke(cli, ["export", str(src), "--cameras", str(scene), "--split", "test", "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and "transforms_test.json" in lines[0] and message in lines[0]
+    assert "Traceback" not in r.output
 
 
 @FUZZ

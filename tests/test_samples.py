@@ -67,4 +67,4 @@ def test_refuses_to_overwrite(tmp_path):
 
 def test_unknown_name():
     with pytest.raises(DoodleError, match="chair, snowman, lamp"):
-        write_sample("teapot", "/nonexistent/x")
+        write_sample("kettle", "/nonexistent/x")

@@ -9,7 +9,20 @@
 - :mod:`.pipeline`    :func:`fit`: the stages end to end
 """
 
-from .config import FitConfig
-from .pipeline import FitResult, fit
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["FitConfig", "FitResult", "fit"]
+from .config import DETAIL_LEVELS, FitConfig
+
+if TYPE_CHECKING:
+    from .pipeline import FitResult, fit
+
+__all__ = ["DETAIL_LEVELS", "FitConfig", "FitResult", "fit"]
+
+
+def __getattr__(name: str) -> Any:
+    # The pipeline (and torch) load on first use: the CLI reads the detail levels without them.
+    if name in ("FitResult", "fit"):
+        from . import pipeline
+
+        return getattr(pipeline, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -38,7 +38,7 @@ WORK_VOXELS = 96
 #: A superquadric whose IoU with its own part is below this does not draw it (curves do).
 MIN_PART_IOU = 0.55
 #: Two neighbouring parts are one when a single superquadric explains them with at least this IoU.
-MERGE_IOU = 0.85
+MERGE_IOU = 0.9
 #: Weight of the other parts' voxels as "outside" for a part's own superquadric (overlap is cheap).
 OTHER_PART_WEIGHT = 0.1
 SHAPE_LO, SHAPE_HI = 0.1, 1.9
@@ -97,7 +97,7 @@ def coarsen(occupied: np.ndarray, max_voxels: int) -> tuple[np.ndarray, int]:
     return a.reshape(X, k, Y, k, Z, k).mean(axis=(1, 3, 5)) >= 0.5, k
 
 
-def split_parts(thick: np.ndarray, h: float = 0.2) -> np.ndarray:
+def split_parts(thick: np.ndarray, h: float = 0.1) -> np.ndarray:
     """Labels ``int (X, Y, Z)`` (0 outside) of the parts of ``thick``: a watershed of the distance to the
     outside from its h-maxima (maxima standing at least ``h`` × the largest distance, and a voxel, above their
     surroundings), so parts meet where the volume narrows by that much. Splitting too little costs nothing
@@ -240,6 +240,10 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
     # knob holds 1-2 % of a teapot's volume and draws a good part of its outline.
     shell = (thick & ~ndimage.binary_erosion(thick))[tuple(cells.T)]
     tau = 0.5 * cvox
+    # what one superquadric leaves beside another (a ring at a neck, a rim along a seam) is no part: a residual
+    # is opened by half the thin parts' radius
+    r2 = max(1, radius // 2)
+    sliver = np.linalg.norm(np.mgrid[-r2:r2 + 1, -r2:r2 + 1, -r2:r2 + 1], axis=0) <= r2 + 0.5
     found: list[SuperquadricSet] = []
     union = np.zeros(len(cells), bool)  # within a voxel of the union
     best, parts, tried = 0.0, 0, np.zeros(thick.shape, bool)
@@ -248,7 +252,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         covered = np.zeros(thick.shape, bool)
         covered[tuple(cells[union].T)] = True
         residual = thick & ~covered & ~tried
-        residual = ndimage.binary_opening(residual)  # slivers along a surface are no part
+        residual = ndimage.binary_opening(residual, structure=sliver)  # slivers along a surface are no part
         if residual.sum() < 8:
             break
         labels = split_parts(residual)
@@ -265,7 +269,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
             other = touching[np.argmax(sizes[touching - 1])]
             both = mine | (labels == other)
             sq2, iou2 = _fit_part(both, thick, covered, care, c_origin, cvox, axes, tau, radius, steps, rng)
-            if iou2 >= max(MERGE_IOU, own_iou - 0.03):
+            if iou2 >= max(MERGE_IOU, own_iou - 0.02):
                 sq, own_iou, mine = sq2, iou2, both
         d = _distance(centres, sq)[0]
         trial = union | (d <= cvox)
@@ -290,7 +294,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
 
 def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np.ndarray, origin: np.ndarray,
               voxel: float, axes: np.ndarray, tau: float, grow: int, steps: int, rng: np.random.Generator,
-              max_points: int = 2500) -> tuple[SuperquadricSet, float]:
+              max_points: int = 2000) -> tuple[SuperquadricSet, float]:
     """One superquadric for the part ``mine``: its voxels inside, the empty voxels around it outside, the rest
     of the thick part weakly outside, what is already explained (``covered``) and thin parts not at all.
     Returns it and its IoU with the part (what it holds of the part, over the part and the empty voxels it
@@ -326,7 +330,7 @@ def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np
 
 
 def _refine_union(sq: SuperquadricSet, centres: np.ndarray, in_thick: np.ndarray, tau: float, steps: int,
-                  rng: np.random.Generator, max_points: int = 30000) -> SuperquadricSet:
+                  rng: np.random.Generator, max_points: int = 12000) -> SuperquadricSet:
     """All superquadrics together on the union's occupancy against the thick part."""
     sel = rng.choice(len(centres), min(len(centres), max_points), replace=False)
     C = torch.from_numpy(centres[sel].astype(np.float32))

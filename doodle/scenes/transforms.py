@@ -29,6 +29,8 @@ def _read_json(path: Path) -> dict:
         raise SceneError(f"{path}: not found") from None
     except (ValueError, OSError) as exc:
         raise SceneError(f"{path}: not valid JSON ({str(exc).splitlines()[0]})") from None
+    except RecursionError:
+        raise SceneError(f"{path}: not valid JSON (nested too deeply)") from None
     if not isinstance(data, dict) or not isinstance(data.get("frames"), list) or not data["frames"]:
         raise SceneError(f"{path}: expected an object with a non-empty 'frames' list")
     return data
@@ -38,7 +40,7 @@ def _pose(frame: Any, path: Path, i: int) -> tuple[np.ndarray, np.ndarray]:
     """World-to-camera (R, t) from a frame's Blender ``transform_matrix``."""
     try:
         c2w = np.asarray(frame["transform_matrix"], dtype=np.float64)
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError, RecursionError):
         raise SceneError(f"{path}: frames[{i}].transform_matrix missing or not a 4x4 matrix") from None
     if c2w.shape not in ((4, 4), (3, 4)) or not np.isfinite(c2w).all() or np.abs(c2w).max() > MAX_COORD:
         raise SceneError(f"{path}: frames[{i}].transform_matrix must be a finite 4x4 matrix (entries within ±1e9)")
@@ -124,7 +126,7 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
             v = fr.get(key, data.get(key))
             if key == "fl_y" and v is None:
                 v = fr.get("fl_x", data.get("fl_x"))
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 < v <= MAX_COORD):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < v <= MAX_COORD and math.isfinite(v)):
                 raise SceneError(f"{path}: frames[{i}]: intrinsic {key!r} missing or invalid (shared or per frame)")
             intr[key] = float(v)
         if fr.get("camera_model", data.get("camera_model", "OPENCV")) not in ("OPENCV", "PINHOLE", "SIMPLE_PINHOLE"):
