@@ -77,13 +77,19 @@ def main() -> None:
     ap.add_argument("--only", help="comma-separated scenes")
     ap.add_argument("--configs", default=",".join(CONFIGS), help="comma-separated: low, medium, high, hull")
     ap.add_argument("--sheet", type=Path, help="write one PNG per scene, a row per configuration")
+    ap.add_argument("--figure", type=Path, help="write one PNG with a row per scene: a held-out photo, then that "
+                                                  "view drawn at each configuration (docs/levels.png)")
+    ap.add_argument("--view", type=int, default=3, help="the held-out view of --figure")
     args = ap.parse_args()
     only = set(args.only.split(",")) if args.only else None
     configs = args.configs.split(",")
     print(f"{'scene':12s} {'config':7s} {'s':>6s} {'bytes':>6s} {'curves':>6s} {'sq':>5s} {'P':>6s} {'R':>6s} {'F':>6s}")
+    figure = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, train, test, truth in scenes(only, Path(tmp)):
             rows = []
+            if args.figure:
+                figure.append([photo(test, args.view)])
             for c in configs:
                 t0 = time.perf_counter()
                 res = fit(train, FitConfig(**CONFIGS[c]), log=lambda m: None, progress=False)
@@ -105,6 +111,8 @@ def main() -> None:
                       flush=True)
                 if args.sheet:
                     rows.append(views_png(s, test))
+                if args.figure:
+                    figure[-1].append(views_png(s, test, (args.view,)))
             if args.sheet and rows:
                 from PIL import Image
 
@@ -113,6 +121,23 @@ def main() -> None:
                 for k, r in enumerate(rows):
                     sheet.paste(r, (0, 256 * k))
                 sheet.save(args.sheet / f"{name}.png")
+    if args.figure and figure:
+        from PIL import Image
+
+        out = Image.new("RGB", (256 * len(figure[0]), 256 * len(figure)), "white")
+        for r, row in enumerate(figure):
+            for c, im in enumerate(row):
+                out.paste(im, (256 * c, 256 * r))
+        out.save(args.figure)
+
+
+def photo(test, v: int) -> "Image.Image":
+    """A held-out image at 256 px, over white."""
+    from PIL import Image
+
+    im = Image.fromarray(np.asarray(test.images[v % len(test)])[..., :3])
+    return im.resize((256, round(256 * im.height / im.width)) if im.width >= im.height else
+                     (round(256 * im.width / im.height), 256))
 
 
 if __name__ == "__main__":
