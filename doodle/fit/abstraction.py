@@ -16,7 +16,9 @@ Marching-Primitives (CVPR 2023) and EMS (CVPR 2022) recover them from a distance
 4. Parts are taken largest first while each adds at least ``min_gain`` of the thick part's volume to the
    union's IoU (the count is chosen by the volume, not given); a superquadric that explains its own part
    poorly (IoU under :data:`MIN_PART_IOU`) is left out, and its part is left to the curves.
-5. The kept ones are refined together on the union's occupancy (a soft maximum over them).
+5. The kept ones are refined together on the union's occupancy (a soft maximum over them), at the full
+   grid's voxels near the thick part's surface: the parts are found on a coarse grid, the outline is
+   placed on the fine one.
 
 Everything is numpy in, numpy out; torch does the fitting (CPU, about a second on a cow).
 """
@@ -285,7 +287,13 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         return Abstraction(SuperquadricSet(), 0.0, parts, thick_share)
     sq = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in found]) for a in ("scale", "shape", "rotation",
                                                                                     "translation")))
-    sq = _refine_union(sq, centres, in_thick, tau, steps, rng)
+    # The parts are found on the working grid; the union is refined on the full one, near its surface, where
+    # a voxel of the working grid is more than the 2 px a line may stray (the cow's held-out line precision
+    # 0.878 refined on the working grid, 0.941 fitted on the full one, 2.5 times slower).
+    points, inside = _surface_samples(occupied, thick, k, origin, voxel, axes, rng)
+    far = rng.choice(len(centres), min(len(centres), 4000), replace=False)  # and some of everything else
+    points, inside = np.concatenate([points, centres[far]]), np.concatenate([inside, in_thick[far]])
+    sq = _refine_union(sq, points, inside, 0.5 * voxel, steps, rng)
     iou = _iou((_distance(centres, sq) <= 0).any(axis=0), in_thick)
     log(f"superquadrics: {len(sq)} abstract the volume (IoU {iou:.3f} with its thick part, {thick_share:.0%} of "
         "the hull)")
@@ -329,9 +337,30 @@ def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np
     return sq, float(inside.sum() / (len(ijk) + spill.sum()))
 
 
+def _surface_samples(occupied: np.ndarray, thick: np.ndarray, k: int, origin: np.ndarray, voxel: float,
+                     axes: np.ndarray, rng: np.random.Generator, count: int = 8000, band: int = 2
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """World centres of full-grid voxels within ``band`` voxels of the thick part's surface, ``count`` inside
+    and ``count`` outside it, and whether each is inside. ``thick`` is on the working grid, ``k`` times
+    coarser; on the full grid the thick part is its blocks' occupied voxels (thin parts are left out)."""
+    up = np.repeat(np.repeat(np.repeat(thick, k, 0), k, 1), k, 2)[tuple(slice(0, n) for n in occupied.shape)]
+    pad = [(0, n - m) for n, m in zip(occupied.shape, up.shape)]
+    fine = np.pad(up, pad) & occupied
+    near = fine & ~ndimage.binary_erosion(fine, iterations=band)
+    far = ndimage.binary_dilation(fine, iterations=band) & ~fine & ~(occupied & ~fine)
+    out_pts, out_in = [], []
+    for region, flag in ((near, True), (far, False)):
+        ijk = np.argwhere(region)
+        if len(ijk) > count:
+            ijk = ijk[rng.choice(len(ijk), count, replace=False)]
+        out_pts.append(origin + (ijk * voxel) @ axes)
+        out_in.append(np.full(len(ijk), flag))
+    return np.concatenate(out_pts), np.concatenate(out_in)
+
+
 def _refine_union(sq: SuperquadricSet, centres: np.ndarray, in_thick: np.ndarray, tau: float, steps: int,
-                  rng: np.random.Generator, max_points: int = 12000) -> SuperquadricSet:
-    """All superquadrics together on the union's occupancy against the thick part."""
+                  rng: np.random.Generator, max_points: int = 20000) -> SuperquadricSet:
+    """All superquadrics together on the union's occupancy against the thick part, at points ``centres``."""
     sel = rng.choice(len(centres), min(len(centres), max_points), replace=False)
     C = torch.from_numpy(centres[sel].astype(np.float32))
     Y = torch.from_numpy(in_thick[sel].astype(np.float32))[None]

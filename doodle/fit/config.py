@@ -32,7 +32,7 @@ class DetailLevel:
 
 
 DETAIL_LEVELS: dict[str, DetailLevel] = {
-    "low": DetailLevel(curves=16, superquadrics=4, superquadric_gain=0.03, curve_gain=0.004),
+    "low": DetailLevel(curves=12, superquadrics=6, superquadric_gain=0.02, curve_gain=0.004),
     "medium": DetailLevel(curves=40, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015),
     "high": DetailLevel(curves=AUTO_MAX_CURVES, superquadrics=12, superquadric_gain=0.005, curve_gain=0.0005),
 }
