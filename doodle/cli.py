@@ -117,6 +117,59 @@ def convert(src: Path, dst: Path, fmt: str | None) -> None:
     click.echo(f"wrote {dst} ({n} bytes)")
 
 
+@cli.command()
+@click.argument("strokes", type=click.Path(path_type=Path))
+@click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="3D file to write: .obj (polylines, exact cubics as curv, meshes) or .ply (edges and faces).")
+@click.option("--samples", type=click.IntRange(2, 1024), default=32, show_default=True,
+              help="Points per curve in the polylines.")
+@click.option("--curves/--no-curves", default=True, show_default=True, help="Write the curves.")
+@click.option("--superquadrics/--no-superquadrics", default=True, show_default=True,
+              help="Write the superquadrics as closed meshes.")
+def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superquadrics: bool) -> None:
+    """Write the 3D strokes of STROKES for 3D tools: OBJ or PLY, in the stroke file's units and axes."""
+    from dataclasses import replace
+
+    from .atomic import atomic_path
+    from .exporters.scene3d import to_obj, to_ply
+    from .strokes import CurveSet, SuperquadricSet, read_strokes
+
+    s = read_strokes(strokes)
+    if not curves:
+        s = replace(s, curves=CurveSet(width_px=s.curves.width_px))
+    if not superquadrics:
+        s = replace(s, superquadrics=SuperquadricSet())
+    suffix = out_path.suffix.lower()
+    if suffix not in (".obj", ".ply"):
+        raise DoodleError(f"{out_path}: unknown 3D format {suffix or '(no suffix)'!r} (use .obj or .ply)")
+    data = to_obj(s, samples).encode() if suffix == ".obj" else to_ply(s, samples)
+    try:
+        with atomic_path(out_path) as tmp:
+            tmp.write_bytes(data)
+    except OSError as exc:
+        raise DoodleError(f"{out_path}: cannot write ({exc.strerror or exc})") from None
+    click.echo(f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {len(data)} bytes")
+
+
+@cli.command(name="blender-addon")
+@click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default="doodle_import.py",
+              show_default=True, help="Where to write the add-on (one Python file).")
+def blender_addon(out_path: Path) -> None:
+    """Write the Blender add-on and script that imports .doodle files (curves as exact Bézier curves,
+    superquadrics as meshes, orbit cameras). Install it in Blender's preferences, or run it headless:
+    blender -b --python doodle_import.py -- strokes.doodle --save strokes.blend"""
+    from .atomic import atomic_path
+    from .exporters.scene3d import blender_addon_source
+
+    try:
+        with atomic_path(out_path) as tmp:
+            tmp.write_text(blender_addon_source(), encoding="utf-8")
+    except OSError as exc:
+        raise DoodleError(f"{out_path}: cannot write ({exc.strerror or exc})") from None
+    click.echo(f"wrote {out_path} (Blender: Edit > Preferences > Add-ons > Install; or blender -b --python "
+               f"{out_path.name} -- strokes.doodle)")
+
+
 def _parse_size(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[int, int | None] | None:
     """``W`` or ``WxH`` in pixels."""
     if value is None:

@@ -1,0 +1,189 @@
+"""Import a doodle stroke file (``.doodle``, JSON) into Blender.
+
+An add-on (File > Import > doodle strokes) and a script. Curves come in exactly: a doodle curve is a cubic
+Bézier and so is a Blender Bézier spline (two points, the inner control points as their handles). Each
+superquadric comes in as a closed mesh, and each orbit view of the stroke file's default camera as a camera.
+Scene units and axes are the stroke file's (NeRF-synthetic and the procedural scenes: +z up, as Blender's).
+
+Script use, headless::
+
+    blender -b --python doodle_import.py -- strokes.doodle [--views 8] [--bevel 0.004] [--save out.blend]
+
+Binary ``.doodleb`` files: convert first (``doodle convert s.doodleb s.doodle``). Written out by
+``doodle blender-addon``; this file needs nothing but Blender's own Python (bpy, mathutils).
+"""
+
+bl_info = {
+    "name": "doodle strokes",
+    "author": "doodle",
+    "version": (1, 0, 0),
+    "blender": (3, 0, 0),
+    "location": "File > Import > doodle strokes (.doodle)",
+    "description": "3D Bézier curves and superquadrics of a doodle stroke file",
+    "category": "Import-Export",
+}
+
+import json  # noqa: E402
+import math  # noqa: E402
+import sys  # noqa: E402
+
+import bpy  # noqa: E402
+from mathutils import Vector  # noqa: E402
+
+
+def _signed_pow(v, e):
+    return 0.0 if abs(v) < 1e-9 else math.copysign(abs(v) ** e, v)
+
+
+def _warp(phi, e):
+    """Parameter whose superellipse point lies at polar angle ``phi`` (even spacing on box-like shapes)."""
+    c, s = math.cos(phi), math.sin(phi)
+    return math.atan2(math.copysign(abs(s) ** (1 / e), s), math.copysign(abs(c) ** (1 / e), c))
+
+
+def _rotate(q, p):
+    """Rotate point ``p`` by the unit quaternion ``q = (w, x, y, z)``."""
+    n = math.sqrt(sum(v * v for v in q))
+    w, x, y, z = (v / n for v in q)
+    R = ((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
+         (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
+         (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)))
+    return tuple(sum(R[r][c] * p[c] for c in range(3)) for r in range(3))
+
+
+def superquadric_mesh(sq, n_eta=24, n_omega=48):
+    """Vertices and triangles of one superquadric (``scale``, ``shape``, ``rotation``, ``translation``): the
+    same closed mesh as ``doodle export3d`` writes (``doodle.exporters.scene3d.superquadric_mesh``)."""
+    a = [float(v) for v in sq["scale"]]
+    e1, e2 = (float(v) for v in sq["shape"])
+    t = [float(v) for v in sq["translation"]]
+
+    def point(eta, omega):
+        c1 = _signed_pow(math.cos(eta), e1)
+        local = (a[0] * c1 * _signed_pow(math.cos(omega), e2), a[1] * c1 * _signed_pow(math.sin(omega), e2),
+                 a[2] * _signed_pow(math.sin(eta), e1))
+        return tuple(r + o for r, o in zip(_rotate(sq["rotation"], local), t))
+
+    etas = [_warp(-math.pi / 2 + math.pi * (i + 1) / n_eta, e1) for i in range(n_eta - 1)]
+    omegas = [_warp(-math.pi + 2 * math.pi * j / n_omega, e2) for j in range(n_omega)]
+    verts = [point(-math.pi / 2, 0.0)] + [point(e, o) for e in etas for o in omegas] + [point(math.pi / 2, 0.0)]
+    ring = lambda i, j: 1 + i * n_omega + j % n_omega  # noqa: E731
+    faces = [(0, ring(0, j + 1), ring(0, j)) for j in range(n_omega)]
+    for i in range(n_eta - 2):
+        for j in range(n_omega):
+            faces += [(ring(i, j), ring(i, j + 1), ring(i + 1, j + 1)), (ring(i, j), ring(i + 1, j + 1), ring(i + 1, j))]
+    top = len(verts) - 1
+    faces += [(top, ring(n_eta - 2, j), ring(n_eta - 2, j + 1)) for j in range(n_omega)]
+    return verts, faces
+
+
+def orbit(scene, views):
+    """``(location, look-at, fov)`` of ``views`` cameras orbiting ``up`` as ``doodle export --views`` does."""
+    up = Vector(scene["up"]).normalized()
+    centre = Vector(scene["center"])
+    cam = scene.get("camera", {})
+    dist, el = float(cam.get("distance", 4.0)), math.radians(float(cam.get("elevation_deg", 30.0)))
+    az0 = math.radians(float(cam.get("azimuth_deg", 0.0)))
+    ref = Vector((1.0, 0, 0)) if abs(up.x) < 0.9 else Vector((0, 1.0, 0))
+    e1 = (ref - up * ref.dot(up)).normalized()
+    e2 = up.cross(e1)
+    out = []
+    for k in range(views):
+        az = az0 + 2 * math.pi * k / views
+        d = math.cos(el) * (math.cos(az) * e1 + math.sin(az) * e2) + math.sin(el) * up
+        out.append((centre + dist * d, centre, math.radians(float(cam.get("fov_deg", 39.6)))))
+    return out
+
+
+def import_strokes(path, views=8, bevel=None, collection_name=None):
+    """Create the stroke file's curves, superquadrics and orbit cameras in a new collection; returns it."""
+    with open(path, encoding="utf-8") as fh:
+        doc = json.load(fh)
+    if doc.get("format") != "doodle-strokes":
+        raise ValueError(f"{path}: not a doodle stroke file (binary files: doodle convert s.doodleb s.doodle)")
+    scene = doc["scene"]
+    radius = float(scene.get("radius", 1.0))
+    coll = bpy.data.collections.new(collection_name or "doodle")
+    bpy.context.scene.collection.children.link(coll)
+    for i, ctrl in enumerate(doc.get("curves", {}).get("control_points", [])):
+        data = bpy.data.curves.new(f"curve-{i:03d}", type="CURVE")
+        data.dimensions = "3D"
+        data.bevel_depth = 0.004 * radius if bevel is None else bevel
+        spline = data.splines.new("BEZIER")
+        spline.bezier_points.add(1)
+        p0, p1, p2, p3 = (Vector(p) for p in ctrl)
+        a, b = spline.bezier_points
+        for point in (a, b):
+            point.handle_left_type = point.handle_right_type = "FREE"
+        a.co, a.handle_right, a.handle_left = p0, p1, p0 - (p1 - p0)
+        b.co, b.handle_left, b.handle_right = p3, p2, p3 + (p3 - p2)
+        coll.objects.link(bpy.data.objects.new(f"curve-{i:03d}", data))
+    for i, sq in enumerate(doc.get("superquadrics", [])):
+        verts, faces = superquadric_mesh(sq)
+        mesh = bpy.data.meshes.new(f"superquadric-{i:02d}")
+        mesh.from_pydata(verts, [], faces)
+        mesh.update()
+        coll.objects.link(bpy.data.objects.new(f"superquadric-{i:02d}", mesh))
+    for k, (loc, target, fov) in enumerate(orbit(scene, views)):
+        cam = bpy.data.cameras.new(f"view-{k:03d}")
+        cam.angle = fov
+        obj = bpy.data.objects.new(f"view-{k:03d}", cam)
+        obj.location = loc
+        obj.rotation_euler = (target - loc).to_track_quat("-Z", "Y").to_euler()
+        coll.objects.link(obj)
+    bpy.context.view_layer.update()  # world matrices of the new objects, for scripts that use them next
+    return coll
+
+
+class ImportDoodle(bpy.types.Operator):
+    """Import a doodle stroke file"""
+
+    bl_idname = "import_scene.doodle"
+    bl_label = "Import doodle strokes"
+    filename_ext = ".doodle"
+    filepath: bpy.props.StringProperty(subtype="FILE_PATH")
+    views: bpy.props.IntProperty(name="Orbit cameras", default=8, min=0, max=360)
+
+    def execute(self, context):
+        try:
+            import_strokes(self.filepath, self.views)
+        except (OSError, ValueError, KeyError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+
+def _menu(self, context):
+    self.layout.operator(ImportDoodle.bl_idname, text="doodle strokes (.doodle)")
+
+
+def register():
+    bpy.utils.register_class(ImportDoodle)
+    bpy.types.TOPBAR_MT_file_import.append(_menu)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_import.remove(_menu)
+    bpy.utils.unregister_class(ImportDoodle)
+
+
+def _main(argv):
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="doodle_import.py")
+    ap.add_argument("strokes")
+    ap.add_argument("--views", type=int, default=8)
+    ap.add_argument("--bevel", type=float, default=None)
+    ap.add_argument("--save", help="write the scene to this .blend file")
+    args = ap.parse_args(argv)
+    import_strokes(args.strokes, args.views, args.bevel)
+    if args.save:
+        bpy.ops.wm.save_as_mainfile(filepath=args.save)
+
+
+if __name__ == "__main__":
+    _main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
