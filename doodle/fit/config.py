@@ -153,9 +153,9 @@ class FitConfig:
     @property
     def outline_curves(self) -> int:
         """Curves discovery may add for the outline alone once ``max_curves`` are chosen: none for a number,
-        none when the hull's outline is drawn (it completes the outline); beside superquadrics, as many as the
-        detail level's curves (an outline the superquadrics leave open is closed by curves at every level)."""
-        return 0 if self.curves != "auto" or self.outline_hull else self.level.curves
+        none when the hull's outline is drawn (it completes the outline); beside superquadrics, half the detail
+        level's curves (an outline the superquadrics leave open is closed by curves at every level)."""
+        return 0 if self.curves != "auto" or self.outline_hull else self.level.curves // 2
 
     @property
     def curve_iterations(self) -> int:

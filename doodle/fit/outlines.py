@@ -124,6 +124,26 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
     return on / np.maximum(ink, 1)
 
 
+def outline_on_curves(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],
+                      reach_px: int = 2) -> np.ndarray:
+    """Per superquadric, the share of its own visible outline (as :func:`outline_precision` draws it) within
+    ``reach_px`` of where ``curves`` are drawn, pooled over ``cameras``: how much of it the curves draw."""
+    from ..exporters.drawing import DrawOptions, draw_many
+
+    every = replace(sq, outline=np.ones(len(sq), bool))
+    opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
+    outlines = draw_many(StrokeSet(frame, CurveSet(), every), cameras, replace(opts, curves=False))
+    drawn = draw_many(StrokeSet(frame, curves, every.subset(np.zeros(len(sq), bool))), cameras, opts)
+    on, ink = np.zeros(len(sq)), np.zeros(len(sq))
+    for cam, per, d in zip(cameras, raster_layer(outlines, cameras, "silhouettes", _silhouette_owner), drawn):
+        lines = ink_paths(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
+        near = ndimage.binary_dilation(lines, iterations=reach_px) if lines.any() else lines
+        for i, img in per.items():
+            on[i] += (img & near).sum()
+            ink[i] += img.sum()
+    return on / np.maximum(ink, 1)
+
+
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
                     masks: list[np.ndarray], tau: float = 0.008, min_share: float = MIN_CELL_SHARE,
                     grid: tuple[int, int] = (32, 64), occluder: Voxels | None = None) -> np.ndarray:

@@ -25,7 +25,7 @@ from .config import FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
-from .outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_precision, raster_layer
+from .outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_on_curves, outline_precision, raster_layer
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
@@ -37,6 +37,8 @@ STRONG_GAIN = 0.002
 FLAT_END = 0.3
 """ε₁ from which a superquadric is tried with flat ends (a cylinder's, a plate's) after it is grown."""
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
+#: Beside the abstraction, a superquadric whose outline the strong feature curves draw this much of only hides.
+MAX_OUTLINE_ON_CURVES = 0.75
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
                "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "outline", "detail", "occluder")
@@ -601,7 +603,21 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 for i in np.flatnonzero(precision < MIN_OUTLINE_PRECISION):
                     say(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
                         "of its outline lies on the object's lines)")
-                final_sq = replace(final_sq, outline=precision >= MIN_OUTLINE_PRECISION)
+                # A crisp edge drawn by a feature curve beats the rounded outline along it: a superquadric
+                # whose outline the strong feature curves already draw (a CAD part's box) only hides.
+                crisp = (contour == 0) if contour is not None else np.ones(len(start), bool)
+                if candidates is not None and crisp.any():  # creases, not traces across smooth faces
+                    from .texture import on_smooth_faces
+
+                    crisp[crisp] = ~on_smooth_faces(start[crisp], candidates.evidence.grid,
+                                                    candidates.evidence.occupied)
+                on_curves = outline_on_curves(final_sq, CurveSet(start[crisp], cfg.width_px), frame, judge[0]) \
+                    if crisp.any() else np.zeros(len(final_sq))
+                for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= MIN_OUTLINE_PRECISION)):
+                    say(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
+                        f"{on_curves[i]:.0%} of it)")
+                final_sq = replace(final_sq, outline=(precision >= MIN_OUTLINE_PRECISION)
+                                   & (on_curves < MAX_OUTLINE_ON_CURVES))
             else:
                 final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
                                          curves_beside=curves_beside if candidates is not None else None,
