@@ -31,8 +31,17 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
     click.echo(f"Warning: {str(message).splitlines()[0] if str(message) else category.__name__}", err=True)
 
 
+#: ``doodle --help`` lists the commands in the order a user meets them.
+COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "styles", "eval", "convert", "export3d",
+                 "blender-addon")
+
+
 class DoodleGroup(click.Group):
     """Turns :class:`DoodleError` and click's usage errors into one line on stderr with exit code 2."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        known = [c for c in COMMAND_ORDER if c in self.commands]
+        return known + sorted(c for c in self.commands if c not in known)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -66,7 +75,7 @@ def cli() -> None:
     """Turn multi-view images of an object into a few 3D strokes and clean vector sketches."""
 
 
-@cli.command()
+@cli.command(short_help="Write a procedural scene with its ground truth.")
 @click.argument("name", type=str)
 @click.argument("out_dir", type=click.Path(file_okay=False, path_type=Path))
 @click.option("--train", "n_train", default=40, show_default=True, type=click.IntRange(1, 1000), help="Training views.")
@@ -93,7 +102,7 @@ def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force
     click.echo(f"wrote {name}: {n_train} train + {n_test} test views at {size} px to {out}")
 
 
-@cli.command()
+@cli.command(short_help="Counts, sizes per part and provenance of a stroke file.")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
 def info(strokes: Path, as_json: bool) -> None:
@@ -104,7 +113,7 @@ def info(strokes: Path, as_json: bool) -> None:
     click.echo(json.dumps(desc, indent=1) if as_json else format_description(desc))
 
 
-@cli.command()
+@cli.command(short_help="Convert a stroke file between JSON and compact binary.")
 @click.argument("src", type=click.Path(path_type=Path))
 @click.argument("dst", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--to", "fmt", type=click.Choice(["json", "binary"]), default=None,
@@ -117,7 +126,7 @@ def convert(src: Path, dst: Path, fmt: str | None) -> None:
     click.echo(f"wrote {dst} ({n} bytes)")
 
 
-@cli.command()
+@cli.command(short_help="Write the 3D strokes as OBJ or PLY for 3D tools.")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="3D file to write: .obj (polylines, exact cubics as curv, meshes) or .ply (edges and faces).")
@@ -151,7 +160,7 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
     click.echo(f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {len(data)} bytes")
 
 
-@cli.command(name="blender-addon")
+@cli.command(name="blender-addon", short_help="Write the Blender add-on that imports stroke files.")
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default="doodle_import.py",
               show_default=True, help="Where to write the add-on (one Python file).")
 def blender_addon(out_path: Path) -> None:
@@ -217,7 +226,8 @@ def view_options(f):
                      help="Draw the cameras of this dataset folder instead of an orbit."),
         click.option("--split", default="test", show_default=True, help="Dataset split for --cameras."),
         click.option("--size", callback=_parse_size, help="Image size W or WxH in pixels (default: recorded)."),
-        click.option("--projection", type=click.Choice(["persp", "ortho"]), default="persp", show_default=True),
+        click.option("--projection", type=click.Choice(["persp", "ortho"]), default="persp", show_default=True,
+                     help="Perspective or orthographic orbit cameras."),
         click.option("--tolerance", type=float, default=0.05, show_default=True, callback=_positive_float,
                      help="Max distance in px between drawn cubics and the exact projection."),
         click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
@@ -262,7 +272,7 @@ def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool = False, n
                        **extra)
 
 
-@cli.command()
+@cli.command(short_help="Draw a stroke file as exact SVG/PNG/PDF views and a sheet.")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Output folder (view_000.svg, ...).")
@@ -301,14 +311,14 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
         click.echo(f"wrote sheet {sheet} of {len(cams)} views")
 
 
-@cli.command()
+@cli.command(short_help="Render a seamless turntable: GIF, APNG, MP4 or SVG.")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.option("--gif", type=click.Path(dir_okay=False, path_type=Path), help="Write an animated GIF.")
 @click.option("--apng", type=click.Path(dir_okay=False, path_type=Path), help="Write an animated PNG.")
 @click.option("--mp4", type=click.Path(dir_okay=False, path_type=Path), help="Write an MP4 (needs imageio-ffmpeg).")
 @click.option("--svg", type=click.Path(dir_okay=False, path_type=Path), help="Write one animated SVG (plays in browsers).")
-@click.option("--frames", type=int, default=36, show_default=True)
-@click.option("--fps", type=float, default=12.0, show_default=True)
+@click.option("--frames", type=int, default=36, show_default=True, help="Frames in one turn.")
+@click.option("--fps", type=float, default=12.0, show_default=True, help="Frames per second.")
 @click.option("--size", type=int, default=512, show_default=True, help="Frame size in pixels (square).")
 @click.option("--elevation", type=float, default=None, help="Camera elevation in degrees (default: recorded).")
 @click.option("--bob", type=float, default=0.0, show_default=True, help="Gentle up-down motion, degrees.")
@@ -338,7 +348,7 @@ def animate(strokes: Path, gif: Path | None, apng: Path | None, mp4: Path | None
     click.echo("wrote " + ", ".join(str(p) for p in written))
 
 
-@cli.command()
+@cli.command(short_help="List the brush styles, or draw them all on one view.")
 @click.option("--preview", type=click.Path(dir_okay=False, path_type=Path),
               help="Write a sheet with every style drawn on one view.")
 @click.option("--strokes", "strokes_path", type=click.Path(path_type=Path),
@@ -378,7 +388,7 @@ def _log(msg: str) -> None:
     click.echo(msg, err=True)
 
 
-@cli.command()
+@cli.command(short_help="Fit strokes to posed images or plain photos of an object.")
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
@@ -409,8 +419,9 @@ def _log(msg: str) -> None:
               help="Steps of the distance-field curve stage [default: 0 after discovery, else 1500].")
 @click.option("--sq-iterations", type=int, default=400, show_default=True, help="Steps of the superquadric stage.")
 @click.option("--size", type=int, default=256, show_default=True, help="Working resolution (larger image side, px).")
-@click.option("--views-per-step", type=int, default=8, show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--views-per-step", type=int, default=8, show_default=True,
+              help="Training views per step of the distance-field stage.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed (fits are deterministic for one seed).")
 @click.option("--device", default="cpu", show_default=True, help="torch device: cpu, cuda, cuda:1 ...")
 @click.option("--split", default="train", show_default=True, help="Dataset split to fit (NeRF-synthetic).")
 @click.option("--init", "init", type=click.Choice(["auto", "points", "hull", "bbox"]), default="auto", show_default=True,
@@ -418,8 +429,9 @@ def _log(msg: str) -> None:
 @click.option("--objective", default="edges", show_default=True, help="Objective (edges: weight-free default).")
 @click.option("--preview", "preview_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Write contact sheets of the current strokes here every --preview-every steps.")
-@click.option("--preview-every", type=int, default=250, show_default=True)
-@click.option("--checkpoint-every", type=int, default=200, show_default=True)
+@click.option("--preview-every", type=int, default=250, show_default=True, help="Steps between --preview sheets.")
+@click.option("--checkpoint-every", type=int, default=200, show_default=True,
+              help="Steps between checkpoints (OUT.ckpt, for --resume).")
 @click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written while fitting.")
 @click.option("--masks", default="auto", show_default=True, metavar="auto|none|DIR",
               help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
@@ -458,7 +470,7 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
     click.echo(msg)
 
 
-@cli.command(name="eval")
+@cli.command(name="eval", short_help="Score a sketch on held-out views (and 3D curves).")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
 @click.option("--split", default="test", show_default=True, help="Held-out split to measure on.")
@@ -516,10 +528,11 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
         write_text(json_out, json.dumps(metrics, indent=1))
 
 
-@cli.command()
+@cli.command(short_help="Run the whole pipeline on a built-in scene.")
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("doodle-demo"),
               show_default=True, help="Folder for everything the demo makes.")
-@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel", "teapot", "cow"]), default="snowman", show_default=True)
+@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel", "teapot", "cow"]),
+              default="snowman", show_default=True, help="The procedural scene to run on.")
 def demo(out_dir: Path, scene: str) -> None:
     """Run the whole pipeline on a built-in procedural scene: render, fit, export, animate, evaluate."""
     from .demo import run_demo

@@ -2,6 +2,7 @@ import json
 import re
 from pathlib import Path
 
+import click
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -118,3 +119,18 @@ def test_demo_offers_every_sample_scene():
     option = next(p for p in cli.commands["demo"].params if p.name == "scene")
     assert list(option.type.choices) == list(SCENES)
     assert ", ".join(SCENES) in cli.commands["sample"].help
+
+
+def test_every_option_has_help_and_commands_come_in_the_order_a_user_meets_them(runner):
+    from doodle.cli import COMMAND_ORDER
+
+    for name, cmd in cli.commands.items():
+        assert cmd.short_help and len(cmd.short_help) <= 60, name
+        for p in cmd.params:
+            if isinstance(p, click.Option):
+                assert p.help, f"{name} {p.name}"
+    text = runner.invoke(cli, ["--help"]).output
+    listed = [ln.split()[0] for ln in text.split("Commands:")[1].splitlines() if ln.startswith("  ") and ln.split()
+              and not ln.startswith("    ")]
+    assert listed == list(COMMAND_ORDER)
+    assert "..." not in text.split("Commands:")[1]  # no one-line help cut short
