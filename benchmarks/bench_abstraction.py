@@ -80,6 +80,7 @@ def main() -> None:
     ap.add_argument("--figure", type=Path, help="write one PNG with a row per scene: a held-out photo, then that "
                                                   "view drawn at each configuration (docs/levels.png)")
     ap.add_argument("--view", type=int, default=3, help="the held-out view of --figure")
+    ap.add_argument("--keep", type=Path, help="write every fit's stroke file here (SCENE-CONFIG.doodleb)")
     args = ap.parse_args()
     only = set(args.only.split(",")) if args.only else None
     configs = args.configs.split(",")
@@ -109,6 +110,11 @@ def main() -> None:
                 print(f"{name:12s} {c:7s} {dt:6.1f} {len(encode(s)):6d} {len(s.curves):6d} {sq:>5s} "
                       f"{m['line_precision']:6.3f} {m['silhouette_recall']:6.3f} {m['f_score']:6.3f}{extra}",
                       flush=True)
+                if args.keep:
+                    from doodle.strokes import write_strokes
+
+                    args.keep.mkdir(parents=True, exist_ok=True)
+                    write_strokes(args.keep / f"{name}-{c}.doodleb", s)
                 if args.sheet:
                     rows.append(views_png(s, test))
                 if args.figure:

@@ -402,7 +402,8 @@ def _log(msg: str) -> None:
               help="The training views' outlines traced into 3D: view-independent curves where they run along a "
                    "crease, and (beside superquadrics) contour curves drawn where a view grazes them.")
 @click.option("--detail", type=click.Choice(["low", "medium", "high"]), default="medium", show_default=True,
-              help="Abstraction level: how many curves + superquadrics at most ("
+              help="Abstraction level: how many curves + superquadrics at most, beside curves for the outline "
+                   "the superquadrics leave open ("
                    + ", ".join(f"{k} {v.curves} + {v.superquadrics}" for k, v in DETAIL_LEVELS.items())
                    + "); every level draws the whole object.")
 @click.option("--outline", type=click.Choice(["superquadrics", "hull"]), default="superquadrics", show_default=True,

@@ -20,9 +20,9 @@ Layout (little-endian)::
 Version 1 is written when there are no flags (older readers read it), version 3 when the trailer is longer than
 a u16 can say (a fine ``hull``), version 2 otherwise.
 
-Positions are quantised on a grid whose step keeps the round-trip error ≤ 2.5e-4 of the scene radius
-(the bits per coordinate follow from the extent: 13 bits for a typical object). 32 curves and
-8 superquadrics take about 850 bytes plus the provenance trailer.
+Positions are quantised on a grid whose step keeps the round-trip error ≤ 5e-4 of the scene radius
+(the bits per coordinate follow from the extent: 12 bits for a typical object). 32 curves and
+8 superquadrics take about 800 bytes plus the provenance trailer.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ BINARY_VERSION = 3
 NORMAL_BITS = 6
 GATE_BITS = 8
 #: Round-trip tolerance of positions and scales, as a fraction of the scene radius.
-REL_TOLERANCE = 2.5e-4
+REL_TOLERANCE = 5e-4
 SHAPE_BITS = 12
 ROT_BITS = 14
 _HEAD = struct.Struct("<4sBHB")
