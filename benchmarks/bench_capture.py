@@ -109,7 +109,7 @@ def held_out(photos: Path, auto: Path, truth: Path, every: int = 8) -> str:
     those photos against the true masks."""
     from doodle.evaluate import evaluate
     from doodle.fit import FitConfig, fit
-    from doodle.fit.automask import with_masks
+    from doodle.scenes.automask import with_masks
     from doodle.scenes import load_scene
 
     quiet = lambda m: None  # noqa: E731

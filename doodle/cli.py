@@ -456,7 +456,7 @@ def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discov
                     evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
                     size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
                     init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
-    from .fit.automask import with_masks
+    from .scenes.automask import with_masks
 
     scene = load_scene_at_size(scene_dir, split, max(size, evidence_size) if discover else size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
@@ -511,7 +511,7 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
         truth = read_abc_ground_truth(gt_dir)
     scene = load_scene_at_size(scene_dir, split, size)
     if masks_dir is not None:
-        from .fit.automask import with_masks
+        from .scenes.automask import with_masks
 
         scene = with_masks(scene, masks_dir, log=_log)
     if drawings is not None:

@@ -68,7 +68,7 @@ def test_undistort_moves_a_point_to_its_pinhole_projection():
 
 
 def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path):
-    from doodle.fit.automask import with_masks
+    from doodle.scenes.automask import with_masks
 
     truth = load_colmap(capture, masks_dir=capture / "true_masks").masks
     scene = load_colmap(capture)
@@ -92,7 +92,7 @@ def test_automatic_masks_open_the_gaps_the_hull_fills(capture, monkeypatch):
     """Photo-consistency opens what the first cuts and the hull carved from them fill (under the seat, between
     the legs): the masks spill onto the truth's background less than without that step, and what they gain there
     outweighs the little object they lose (a few grazing faces whose colour changes with the view)."""
-    from doodle.fit import automask
+    from doodle.scenes import automask
 
     truth = load_colmap(capture, masks_dir=capture / "true_masks").masks
     scene = load_colmap(capture)
@@ -107,7 +107,7 @@ def test_automatic_masks_open_the_gaps_the_hull_fills(capture, monkeypatch):
 
 
 def test_holes_are_inconsistent_blobs_where_no_object_point_lands():
-    from doodle.fit.automask import HOLE_MIN_ERROR, _holes
+    from doodle.scenes.automask import HOLE_MIN_ERROR, _holes
 
     hull = np.zeros((80, 80), bool)
     hull[10:70, 10:70] = True
@@ -130,7 +130,7 @@ def test_holes_are_inconsistent_blobs_where_no_object_point_lands():
 def test_a_photo_consistent_strip_the_background_colour_stays_object():
     """A strip of the object coloured like the background (Lego's grey lower edge of its plate): GrabCut's
     colour models cut it off; the photos agreeing on its colour at a depth in the hull keep it."""
-    from doodle.fit.automask import _final_cut, _surely_object
+    from doodle.scenes.automask import _final_cut, _surely_object
 
     rng = np.random.default_rng(0)
     H = W = 96
@@ -166,7 +166,7 @@ def test_a_photo_consistent_strip_the_background_colour_stays_object():
 
 def test_support_plane_is_removed():
     from doodle.cameras import Camera, look_at
-    from doodle.fit.automask import remove_support_plane
+    from doodle.scenes.automask import remove_support_plane
 
     rng = np.random.default_rng(0)
     floor = np.c_[rng.uniform(-2, 2, (400, 2)), np.full(400, -1.0)]
@@ -280,7 +280,7 @@ def test_a_point_floating_off_the_object_is_not_an_object_point(capture):
     """A chance match floating beside the object (within its reach, but alone) would seed every view's cut."""
     from dataclasses import replace
 
-    from doodle.fit.automask import object_points
+    from doodle.scenes.automask import object_points
 
     scene = load_colmap(capture)
     r = scene.frame.radius

@@ -1,4 +1,4 @@
-"""Contour curves (``doodle.fit.rims``): the outline of smooth parts, traced in the training views and drawn
+"""Contour curves (``doodle.fit.discovery.rims``): the outline of smooth parts, traced in the training views and drawn
 only from the views that graze them."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from scipy import ndimage
 from doodle.cameras import orbit_cameras
 from doodle.exporters import DrawOptions, draw, union_mask
 from doodle.exporters.drawing import occlusion_probes, off_contour
-from doodle.fit.discover import stroke_coverage
-from doodle.fit.evidence import Evidence, carve_hull, depth_maps
-from doodle.fit.rims import find_rims
+from doodle.fit.discovery.discover import stroke_coverage
+from doodle.fit.discovery.evidence import Evidence, carve_hull, depth_maps
+from doodle.fit.discovery.rims import find_rims
 from doodle.scenes import Scene
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, dumps, loads
 from doodle.strokes.bezier import bezier_points

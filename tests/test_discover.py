@@ -8,10 +8,10 @@ from scipy import ndimage
 
 from doodle.exporters import DrawOptions, draw
 from doodle.exporters.drawing import back_facing
-from doodle.fit.discover import choose_curves, complete_outline, find_candidates, select_strokes, snap_ends
-from doodle.fit.evidence import VoxelGrid, carve_hull, edge_evidence, fit_axes, object_lines, thin_parts
-from doodle.fit.facing import curve_normals
-from doodle.fit.ridges import RidgePoints, _bridge, link_ridges, split_at_corners
+from doodle.fit.discovery.discover import choose_curves, complete_outline, find_candidates, select_strokes, snap_ends
+from doodle.fit.discovery.evidence import VoxelGrid, carve_hull, edge_evidence, fit_axes, object_lines, thin_parts
+from doodle.fit.discovery.facing import curve_normals
+from doodle.fit.discovery.ridges import RidgePoints, _bridge, link_ridges, split_at_corners
 from doodle.fit.targets import working_scene
 from doodle.samples import load_ground_truth
 from doodle.scenes import load_scene
@@ -65,7 +65,7 @@ class TestLines:
 
 
 def test_line_maps_on_the_objects_box_equal_those_on_the_whole_frame(chair, monkeypatch):
-    from doodle.fit import evidence
+    from doodle.fit.discovery import evidence
 
     scene, _ = chair
     # a busy background: the crop's border must not make lines of it
@@ -119,7 +119,7 @@ class TestEvidence:
         assert tolerant.sum() < 1.5 * clean.sum()  # and it does not swell where the masks agree
         assert np.array_equal(carve_hull(scene, 48, disagree=0.0)[1], clean)
         # by default only automatic masks get the tolerance (3 %: none of 12 views, so raised here)
-        from doodle.fit import evidence
+        from doodle.fit.discovery import evidence
 
         monkeypatch.setattr(evidence, "HULL_DISAGREE", 0.1)
         assert np.array_equal(carve_hull(tight, 48)[1], strict)
@@ -285,7 +285,7 @@ class TestFacing:
     def test_fitted_faces_keep_a_margin_for_views_between(self):
         # a probe seen from every view within 95° of +z (a rim); hull normals every 20° in the x-z plane, none
         # exactly +z (a voxel hull's normals are only that accurate)
-        from doodle.fit.facing import FIT_GRAZING, _best_pair
+        from doodle.fit.discovery.facing import FIT_GRAZING, _best_pair
 
         angle = lambda a: np.stack([np.sin(a), np.zeros_like(a), np.cos(a)], -1)
         normals = angle(np.radians(np.arange(-170, 180, 20.0)))
@@ -357,7 +357,7 @@ def test_outline_reach_claims_lines_beside_a_drawn_outline():
     px at the default evidence size), not with 1: otherwise a curve is chosen for them, a tick along the rim."""
     from types import SimpleNamespace
 
-    from doodle.fit.discover import Candidates
+    from doodle.fit.discovery.discover import Candidates
 
     lines = np.zeros((20, 20), bool)
     lines[:, 12] = True  # an image line two pixels right of the outline at x = 10

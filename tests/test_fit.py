@@ -50,8 +50,8 @@ class TestInitialisation:
 
 
     def test_the_outline_hull_drops_webs_and_parts_under_three_voxels_but_keeps_the_rest(self):
-        from doodle.fit.evidence import VoxelGrid
-        from doodle.fit.volume import outline_hull
+        from doodle.fit.discovery.evidence import VoxelGrid
+        from doodle.fit.volume.hull import outline_hull
 
         occupied = np.zeros((30, 20, 20), bool)
         occupied[2:10, 5:15, 5:15] = occupied[20:28, 5:15, 5:15] = True  # two blocks
@@ -66,7 +66,7 @@ class TestInitialisation:
     def test_hull_occluder_is_the_object_a_voxel_in(self, chair_dir):
         """The occluder a fit stores: its voxels lie in the chair (shrunk, the hull does not bulge out of it),
         and it fills the seat's and the back's bulk, so what is behind them is hidden."""
-        from doodle.fit.volume import OCCLUDER_VOXELS, hull_occluder
+        from doodle.fit.volume.hull import OCCLUDER_VOXELS, hull_occluder
 
         scene = load_scene(chair_dir)
         occ = hull_occluder(scene)
@@ -253,9 +253,9 @@ class TestCheckpoints:
         assert done.voxel == first.voxel and np.allclose(done.axes, first.axes)
 
     def test_resume_keeps_the_occluder_the_views_see_through(self, snowman_dir, tmp_path, monkeypatch):
-        """The hull the views see through (:mod:`doodle.fit.sightlines`) is cleared from the occluder once, in
+        """The hull the views see through (:mod:`doodle.fit.discovery.sightlines`) is cleared from the occluder once, in
         discovery; a resumed fit reads that occluder from the checkpoint."""
-        from doodle.fit import discover
+        from doodle.fit.discovery import discover
 
         def top_half(controls, ev, **kw):  # a deterministic stand-in that clears a lot
             free = ev.occupied.copy()
@@ -401,7 +401,7 @@ class TestThinParts:
 
     @pytest.mark.parametrize("size", [96, 160])
     def test_only_the_head_is_thick(self, tripod_dir, size):
-        from doodle.fit.volume import thick_volume
+        from doodle.fit.volume.hull import thick_volume
 
         volume = thick_volume(working_scene(load_scene(tripod_dir), size))
         head = next(p for p in load_ground_truth(tripod_dir)["primitives"] if p.kind == "sphere")
@@ -409,7 +409,7 @@ class TestThinParts:
         assert np.linalg.norm(volume.interior - head.center, axis=1).max() < head.radius + 0.1
 
     def test_a_lamp_keeps_its_bulb_and_base_and_loses_its_stem(self, tmp_path):
-        from doodle.fit.volume import thick_volume
+        from doodle.fit.volume.hull import thick_volume
 
         lamp = write_sample("lamp", tmp_path / "lamp", n_train=12, n_test=1, size=128)
         volume = thick_volume(working_scene(load_scene(lamp), 128))
@@ -420,7 +420,7 @@ class TestThinParts:
     def test_a_mug_keeps_its_body_and_leaves_its_handle_and_hole_open(self, tmp_path):
         from scipy.spatial import cKDTree
 
-        from doodle.fit.volume import thick_volume
+        from doodle.fit.volume.hull import thick_volume
 
         mug = write_sample("mug", tmp_path / "mug", n_train=12, n_test=1, size=128)
         prims = load_ground_truth(mug)["primitives"]

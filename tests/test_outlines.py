@@ -1,4 +1,4 @@
-"""Which superquadrics draw their outline (``doodle.fit.outlines``): only those that raise the sketch's F."""
+"""Which superquadrics draw their outline (``doodle.fit.volume.outlines``): only those that raise the sketch's F."""
 
 import itertools
 from dataclasses import replace
@@ -9,7 +9,7 @@ from scipy import ndimage
 from doodle.cameras import orbit_cameras
 from doodle.exporters import DrawOptions, draw
 from doodle.exporters.visibility import union_mask
-from doodle.fit.outlines import confirm_outlines, confirmed_cells, keep_outlines, sketch_score
+from doodle.fit.volume.outlines import confirm_outlines, confirmed_cells, keep_outlines, sketch_score
 from doodle.strokes.model import CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet
 
 FRAME = SceneFrame(radius=1.0, camera=DefaultCamera(distance=4.0, elevation_deg=25.0, width=96, height=96))
@@ -68,7 +68,7 @@ def test_a_rounded_guess_across_sharp_edges_draws_nothing():
     masks = [union_mask(cube, c) for c in CAMS]
     # the line maps: the cube's boundary and its visible edges (as the curves draw them)
     from doodle.exporters.drawing import DrawOptions, draw_many
-    from doodle.fit.outlines import raster_layer
+    from doodle.fit.volume.outlines import raster_layer
 
     drawings = draw_many(StrokeSet(FRAME, edges, SuperquadricSet()), CAMS, DrawOptions(hidden="hide"))
     ink = raster_layer(drawings, CAMS, "curves", lambda pid: 0)
@@ -104,7 +104,7 @@ def test_an_outline_that_strays_from_the_lines_is_not_drawn():
     """A flat box drawn by nothing else: an ellipsoid of the box's size raises the sketch's F (its outline
     reaches much of the box's), but most of its outline cuts across the box's corners, off every line. It
     reads as a blob, so it hides what is behind it and draws nothing."""
-    from doodle.fit.outlines import outline_precision
+    from doodle.fit.volume.outlines import outline_precision
 
     slab = _one([0.8, 0.8, 0.2], [0.05, 0.05])
     masks, lines = _views(slab)
@@ -202,7 +202,7 @@ def _ring(radius: float) -> CurveSet:
 
 def _inked_lines(strokes: StrokeSet) -> list[np.ndarray]:
     """What the strokes draw in every camera, as line maps."""
-    from doodle.fit.outlines import ink_paths
+    from doodle.fit.volume.outlines import ink_paths
 
     return [ink_paths(np.zeros((c.height, c.width), bool), draw(strokes, c, DrawOptions(hidden="hide")).layer("curves"))
             for c in CAMS]
@@ -233,7 +233,7 @@ def test_an_outline_that_halves_the_curves_beside_it_may_cost_a_little_f(monkeyp
     """The snowman's head: its ball's outline with 17 curves beside it scores 0.956, the 43 curves (contour
     curves of many views, which a view between them draws as dashes) 0.962 without it. Half the curves for
     0.006 of F: the outline is drawn. For 0.02 it is not, nor for 0.006 with more than half the curves."""
-    import doodle.fit.outlines as outlines
+    import doodle.fit.volume.outlines as outlines
 
     ball = _one([0.6, 0.6, 0.6], [1.0, 1.0])
     masks, lines = _views(ball)

@@ -1,4 +1,4 @@
-"""The views see through the hull where they show a curve it hides (``doodle.fit.sightlines``)."""
+"""The views see through the hull where they show a curve it hides (``doodle.fit.discovery.sightlines``)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from scipy import ndimage
 
 from doodle.cameras import Camera
 from doodle.cameras.camera import look_at
-from doodle.fit.evidence import Evidence, VoxelGrid, depth_maps
-from doodle.fit.sightlines import seen_through
-from doodle.fit.volume import clear_seen
+from doodle.fit.discovery.evidence import Evidence, VoxelGrid, depth_maps
+from doodle.fit.discovery.sightlines import seen_through
+from doodle.fit.volume.hull import clear_seen
 from doodle.strokes.bezier import bezier_points
 from doodle.strokes.model import Voxels
 

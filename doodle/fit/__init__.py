@@ -1,6 +1,9 @@
 """The fitting core: scene → stroke set by optimisation through differentiable projections.
 
-- :mod:`.config`      :class:`FitConfig`
+- :mod:`.config`      :class:`FitConfig` and the detail levels
+- :mod:`.discovery`   stroke discovery (a room of its own)
+- :mod:`.volume`      the volume: superquadric abstraction, outlines, hulls (a room of its own)
+- :mod:`.hiding`      which curves the views see from every side (after the choice)
 - :mod:`.targets`     per-view masks, line maps and distance fields; batched projection
 - :mod:`.init`        visual hull and farthest-point initialisation
 - :mod:`.params`      torch parameterisation of curves and superquadrics

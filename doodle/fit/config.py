@@ -10,7 +10,7 @@ from typing import Literal, Union
 #: draw...
 AUTO_MAX_CURVES = 128
 #: ...and, when those are not enough, up to this many more for the outline alone (see
-#: :func:`doodle.fit.discover.choose_curves`): an object with more lines than the sketch holds is still drawn whole.
+#: :func:`doodle.fit.discovery.discover.choose_curves`): an object with more lines than the sketch holds is still drawn whole.
 AUTO_OUTLINE_CURVES = 128
 
 InitMethod = Literal["auto", "points", "hull", "bbox"]
@@ -54,16 +54,16 @@ class FitConfig:
     evidence_voxels: int = 192
     """Evidence grid voxels along the object's longest side."""
     contours: bool = True
-    """Discovery also offers each training view's outline traced into 3D (``doodle.fit.rims``): with
+    """Discovery also offers each training view's outline traced into 3D (``doodle.fit.discovery.rims``): with
     ``outline_hull`` as view-independent curves only (where the outline runs along a crease, the trace is the
     crease); without it also as contour curves, drawn only from the views that graze them, which outline
     smooth parts no fixed curve or superquadric draws."""
     texture: bool = True
     """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
-    printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.texture``)."""
+    printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.discovery.texture``)."""
     outline: Outline = "superquadrics"
     """What draws the view-dependent outline. ``"superquadrics"`` (the compact abstraction): superquadrics
-    fitted to the visual hull in 3D (:mod:`doodle.fit.abstraction`), curves where they do not reach; they also
+    fitted to the visual hull in 3D (:mod:`doodle.fit.volume.abstraction`), curves where they do not reach; they also
     hide what lies behind them. ``"hull"`` (the most faithful outline, 20–45 kB): the visual hull carved for
     the evidence (``evidence_voxels`` on its longest side) is stored in the stroke file and every view draws
     the outline of its projection where the other strokes leave it undrawn (``doodle.exporters.outline``);

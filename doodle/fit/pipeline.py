@@ -25,7 +25,7 @@ from .config import FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
-from .outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_on_curves, outline_precision, raster_layer
+from .volume.outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_on_curves, outline_precision, raster_layer
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
@@ -321,7 +321,7 @@ def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
                       finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None],
                       occluder: Voxels | None = None) -> SuperquadricSet:
     """Judge the drawn outlines again among the superquadrics that stay (``judge``: the cameras, line maps and
-    masks of :func:`~doodle.fit.outlines.keep_outlines`): once occluders that hid parts of an outline are
+    masks of :func:`~doodle.fit.volume.outlines.keep_outlines`): once occluders that hid parts of an outline are
     dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its outline on the
     object's lines to 64 %). One that now strays draws no outline, and ``finish`` chooses the curves again."""
     precision = outline_precision(sq, frame, *judge, occluder=occluder)
@@ -364,7 +364,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     work = working_scene(scene, cfg.size)
     occluder = None
     if cfg.use_occluder and work.masks is not None:
-        from .volume import hull_occluder, occluder_voxels
+        from .volume.hull import hull_occluder, occluder_voxels
 
         occluder = hull_occluder(work, occluder_voxels(cfg.size))
     rng = np.random.default_rng(cfg.seed)
@@ -389,17 +389,17 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 h = ck["discovered"]["hull"]
                 hull = Voxels(h["origin"].numpy(), float(h["voxel"]), h["axes"].numpy(), h["occupied"].numpy().astype(bool))
         else:
-            from .discover import choose_curves, find_candidates
+            from .discovery.discover import choose_curves, find_candidates
 
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
                                          contours=cfg.contours, texture=cfg.texture, hull_outline=cfg.outline_hull,
                                          log=say)
             if occluder is not None and candidates.evidence.free is not None:
-                from .volume import clear_seen
+                from .volume.hull import clear_seen
 
                 occluder = clear_seen(occluder, candidates.evidence.grid, candidates.evidence.free)
             if cfg.outline_hull:
-                from .volume import outline_hull
+                from .volume.hull import outline_hull
 
                 hull = outline_hull(candidates.evidence.grid, candidates.evidence.occupied)
             # the strong curves decide what superquadrics are needed for; the final choice comes after them
@@ -414,13 +414,13 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         n = max(cfg.max_curves, 1)
         start = initial_curves(farthest_points(surface, n, rng), 0.15 * frame.radius, rng)[: cfg.max_curves]
         if cfg.outline_hull and work.masks is not None:
-            from .evidence import carve_hull
-            from .volume import outline_hull
+            from .discovery.evidence import carve_hull
+            from .volume.hull import outline_hull
 
             hull = outline_hull(*carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels))
 
     wants_sq = cfg.superquadrics != 0 and work.masks is not None
-    # The compact abstraction: superquadrics fitted to the volume in 3D draw the outline (fit/abstraction.py)
+    # The compact abstraction: superquadrics fitted to the volume in 3D draw the outline (fit/volume/abstraction.py)
     abstracting = wants_sq and discovering and cfg.superquadrics == "auto" and not cfg.outline_hull
     if cfg.superquadrics != 0 and work.masks is None:
         say("superquadrics: the scene has no masks, fitting curves only")
@@ -443,7 +443,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             say(f"superquadrics: fitting up to {cfg.sq_limit} ({score:.0%} of the image lines are straight)")
     sq_scene = work
     if wants_sq and discovering and not abstracting:
-        from .volume import thick_volume
+        from .volume.hull import thick_volume
 
         volume = thick_volume(work, cfg.thin)
         interior, sq_scene = volume.interior, replace(work, masks=volume.masks)
@@ -512,7 +512,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     def choose_beside(sq: SuperquadricSet, polish: bool, log: Callable[[str], None] = lambda m: None):
         """The choice of curves with ``sq``'s drawn outlines counted as drawn."""
-        from .discover import choose_curves, outline_pixel_ids
+        from .discovery.discover import choose_curves, outline_pixel_ids
 
         # An outline counts as drawn within 1.5 working pixels (the evidence views are finer). The hull's does
         # not: it gives way to the curves where they draw it, and a crisp edge along the outline draws it better.
@@ -538,7 +538,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 "occluder does that)")
             return sq.subset(sq.drawn)
         if len(sq) and not sq.drawn.all():
-            from .outlines import useful_occluders
+            from .volume.outlines import useful_occluders
 
             ev = candidates.evidence
             kept = useful_occluders(sq, CurveSet(start, cfg.width_px, normals, contour), frame,
@@ -571,12 +571,12 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             return stopped
 
         if abstracting:
-            from .abstraction import abstract_volume
+            from .volume.abstraction import abstract_volume
 
             if candidates is not None:
                 grid, occupied = candidates.evidence.grid, candidates.evidence.occupied
             else:  # resumed: discovery is not repeated, the hull is carved again
-                from .evidence import carve_hull
+                from .discovery.evidence import carve_hull
 
                 grid, occupied = carve_hull(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels)
             final_sq = abstract_volume(grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit,
@@ -590,8 +590,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         final_sq = sq_params.to_set()
         judge = None  # the views, lines and masks on which outlines are judged
         if discovering and cfg.superquadrics == "auto" and not interrupted:
-            from .evidence import object_lines
-            from .outlines import keep_outlines
+            from .discovery.evidence import object_lines
+            from .volume.outlines import keep_outlines
 
             judge = ([work.cameras[v] for v in judge_views],
                      [object_lines(work.images[v], work.masks[v]) for v in judge_views],
@@ -607,7 +607,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 # whose outline the strong feature curves already draw (a CAD part's box) only hides.
                 crisp = (contour == 0) if contour is not None else np.ones(len(start), bool)
                 if candidates is not None and crisp.any():  # creases, not traces across smooth faces
-                    from .texture import on_smooth_faces
+                    from .discovery.texture import on_smooth_faces
 
                     crisp[crisp] = ~on_smooth_faces(start[crisp], candidates.evidence.grid,
                                                     candidates.evidence.occupied)
@@ -627,7 +627,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             if judge is not None and final_sq.drawn.any():
                 final_sq = _recheck_outlines(final_sq, frame, judge, finish_discovery, say, occluder)
         if judge is not None and final_sq.drawn.any():
-            from .evidence import object_lines
+            from .discovery.evidence import object_lines
 
             # Last, with the curves chosen: curves picked to fill an outline's gaps came out as ticks (the
             # snowman's nose: 3 curves → 7, held-out F no better). Every view votes (1.4 s for 100 at 256 px).
@@ -677,7 +677,7 @@ def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, wo
                     say: Callable[[str], None], occluder: Voxels | None = None, hull: Voxels | None = None
                     ) -> CurveSet:
     """The curves with facing kept only where the training views do not contradict it (:mod:`.hiding`)."""
-    from .evidence import object_lines
+    from .discovery.evidence import object_lines
     from .hiding import wrongly_hidden
 
     views = spread_indices(len(work), OUTLINE_VIEWS)

@@ -24,9 +24,10 @@ import numpy as np
 from scipy import ndimage
 from skimage import feature
 
-from ..cameras import Camera
-from ..scenes import Scene
-from ..strokes.model import Voxels
+from ...cameras import Camera
+from ...scenes import Scene
+from ...scenes.scene import HULL_DISAGREE
+from ...strokes.model import Voxels
 
 
 @dataclass
@@ -244,7 +245,7 @@ def curve_samples(controls: np.ndarray, voxel: float, spacing_px: float) -> tupl
     """Points along cubics ``(N, 4, 3)`` about ``spacing_px`` apart in views where a voxel of ``voxel`` spans a
     pixel (4 to 4000 a cubic): the points ``float32 (S, 3)``, their parameters ``(S,)``, their cubic ``(S,)`` and
     each cubic's count ``(N,)``."""
-    from ..strokes.bezier import bezier_points
+    from ...strokes.bezier import bezier_points
 
     rough = bezier_points(controls, np.linspace(0, 1, 9))
     length = np.linalg.norm(np.diff(rough, axis=1), axis=2).sum(1)
@@ -263,16 +264,6 @@ def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     u = np.floor(pc[:, 0] / zs * np.float32(cam.fx) + np.float32(cam.cx)).astype(np.int32)
     v = np.floor(pc[:, 1] / zs * np.float32(cam.fy) + np.float32(cam.cy)).astype(np.int32)
     return u, v, z
-
-
-HULL_DISAGREE = 0.03
-"""With automatic masks, the share of the views seeing a voxel whose masks may call it background without
-carving it from a hull (:func:`carve_hull`: the evidence's, the occluder, the thick volume). Their boundaries
-are a pixel or two off, differently in each photo, and one mask a pixel too tight carves a strict hull there
-for every view: it comes out thinner than the object, the contour points lifted onto it fall inside the other
-views' outlines, and the outline's votes land beside the hull's surface. 3 % (none under 34 views) is what
-:mod:`.automask`'s own hull allows (its ``AGREE`` is ``1 - HULL_DISAGREE``). Given masks keep the strict hull: on them a tolerant one fills what
-only a few views see (Lego's held-out recall 0.809 → 0.774)."""
 
 
 def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray],
@@ -448,7 +439,7 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
     """
     from concurrent.futures import ThreadPoolExecutor
 
-    from ..exporters.workers import cpu_count
+    from ...exporters.workers import cpu_count
 
     if scene.masks is None:
         raise ValueError("the scene has no masks")

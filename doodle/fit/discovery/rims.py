@@ -26,9 +26,9 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from ..arrays import along_polyline, first_occupied, free_space
-from ..cameras import Camera
-from ..strokes.fitcurve import fit_cubics_many
+from ...arrays import along_polyline, first_occupied, free_space
+from ...cameras import Camera
+from ...strokes.fitcurve import fit_cubics_many
 from .evidence import VoxelGrid
 
 CONTOUR_GATES = (0.15, 0.3)
@@ -217,7 +217,7 @@ def find_rims(cameras: list[Camera], masks: list[np.ndarray], grid: VoxelGrid, o
     14°)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from ..exporters.workers import cpu_count
+    from ...exporters.workers import cpu_count
 
     density = ndimage.gaussian_filter(occupied.astype(np.float32), 1.0)
     free = free_space(occupied)

@@ -24,7 +24,7 @@ step 4 (every 4th photo, ``benchmarks/bench_capture.py``).
 
 A scene with such masks says so (``Scene.masks_automatic``), and so does a folder they were saved to (its
 :data:`MARKER` file): the fit then carves its hull allowing a few views to disagree
-(:data:`doodle.fit.evidence.HULL_DISAGREE`), since each of these boundaries may be a pixel or two off.
+(:data:`doodle.scenes.scene.HULL_DISAGREE`), since each of these boundaries may be a pixel or two off.
 """
 
 from __future__ import annotations
@@ -41,9 +41,7 @@ from scipy import ndimage
 from ..arrays import nearest_voxels
 from ..cameras import Camera
 from ..errors import SceneError
-from ..scenes import Scene
-from ..scenes.scene import dominant_plane
-from .evidence import HULL_DISAGREE
+from .scene import HULL_DISAGREE, Scene, dominant_plane
 
 CUT_SIZE = 384  # px, the long side at which GrabCut runs (its cost grows with the pixel count)
 # share of the views seeing a voxel that must call it object (a tolerant carve grows fat): the same tolerance
@@ -426,7 +424,7 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
     :data:`MARKER` file)."""
     from dataclasses import replace
 
-    from ..scenes.images import read_mask_folder
+    from .images import read_mask_folder
 
     if str(how) == "none":
         return replace(scene, masks=None, masks_automatic=False)

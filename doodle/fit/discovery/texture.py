@@ -7,7 +7,7 @@ coherence ``|Σ n| / Σ |n|`` is 1 on a flat or gently curved face, ``cos(θ / 2
 ``θ`` (0.71 for a right angle) and near 0 in a part thinner than that, whose sides face opposite ways. A
 stroke with more than :data:`SMOOTH_SHARE` of its samples on the hull's surface where the coherence is above
 :data:`SMOOTH_COHERENCE` lies on a smooth face. There it counts only for the outline it draws
-(:func:`~doodle.fit.discover.select_strokes`): where a smooth face turns away from a view, a line on it is the
+(:func:`~doodle.fit.discovery.discover.select_strokes`): where a smooth face turns away from a view, a line on it is the
 outline; anywhere else it is paint. A stripe across a face then gains nothing, however strong it is.
 
 Lines inside the hull, away from its surface (concave creases and hollows, which a visual hull bridges), are
@@ -21,7 +21,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from ..strokes.bezier import bezier_points
+from ...strokes.bezier import bezier_points
 from .evidence import VoxelGrid
 
 #: Above this coherence of the hull's outward directions the surface is a smooth face: a bend of less than

@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from ..strokes.bezier import bezier_points
+from ...strokes.bezier import bezier_points
 from .evidence import VoxelGrid
 
 FIT_GRAZING = 0.15

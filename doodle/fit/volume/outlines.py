@@ -21,9 +21,9 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
-from ..cameras import Camera
-from ..strokes.bezier import bezier_points
-from ..strokes.model import OUTLINE_CELLS, CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
+from ...cameras import Camera
+from ...strokes.bezier import bezier_points
+from ...strokes.model import OUTLINE_CELLS, CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 
 MIN_OUTLINE_GAIN = 0.002
 """A superquadric's outline is drawn when it raises the training views' sketch F by at least this much."""
@@ -80,7 +80,7 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
     (``-1``: none). It is left out of that view, where it lies on the outline by construction: the score is
     then that of views between the training views, as ``doodle eval`` sees them.
     """
-    from ..exporters.drawing import DrawOptions, draw_many
+    from ...exporters.drawing import DrawOptions, draw_many
 
     drawings = draw_many(strokes, cameras,
                          DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0))
@@ -105,7 +105,7 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
     """Per superquadric, the share of its own visible outline (the others and the ``occluder`` hiding what lies
     behind it) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks'
     boundary, pooled over ``cameras``."""
-    from ..exporters.drawing import DrawOptions, draw_many
+    from ...exporters.drawing import DrawOptions, draw_many
 
     # Hiding uses every superquadric whether drawn or not, so one drawing of all of them, split by owner,
     # gives each one's outline as drawn alone.
@@ -128,7 +128,7 @@ def outline_on_curves(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, 
                       reach_px: int = 2) -> np.ndarray:
     """Per superquadric, the share of its own visible outline (as :func:`outline_precision` draws it) within
     ``reach_px`` of where ``curves`` are drawn, pooled over ``cameras``: how much of it the curves draw."""
-    from ..exporters.drawing import DrawOptions, draw_many
+    from ...exporters.drawing import DrawOptions, draw_many
 
     every = replace(sq, outline=np.ones(len(sq), bool))
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
@@ -154,8 +154,8 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
     at least a pixel, of the view's ``lines`` or the mask's boundary) or off. A cell is kept when at least
     ``min_share`` of its votes are on; a cell no view saw is kept.
     """
-    from ..exporters.drawing import silhouette_hidden
-    from ..exporters.silhouettes import contour_samples
+    from ...exporters.drawing import silhouette_hidden
+    from ...exporters.silhouettes import contour_samples
 
     m, n_cells = len(sq), OUTLINE_CELLS[0] * OUTLINE_CELLS[1]
     on, seen = np.zeros((m, n_cells)), np.zeros((m, n_cells))
@@ -199,7 +199,7 @@ def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndar
     """Per superquadric, the share of its own silhouette that lies inside the (slightly grown) masks."""
     from PIL import Image
 
-    from ..exporters.visibility import union_mask
+    from ...exporters.visibility import union_mask
 
     step = max(1, len(cameras) // max_views)
     inside, total = np.zeros(len(sq)), np.zeros(len(sq))
@@ -292,9 +292,9 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
     the hull's depth maps of ``cameras``) more often than it disagrees — hiding a visible point counts
     double, hiding one the face normals already hide counts nothing.
     """
-    from ..exporters.drawing import back_facing, occlusion_probes, off_contour
-    from ..exporters.visibility import occluded
-    from .evidence import _project
+    from ...exporters.drawing import back_facing, occlusion_probes, off_contour
+    from ...exporters.visibility import occluded
+    from ..discovery.evidence import _project
 
     if len(sq) == 0 or sq.drawn.all():
         return sq

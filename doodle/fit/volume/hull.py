@@ -16,9 +16,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import ndimage
 
-from ..scenes import Scene
-from ..strokes.model import Voxels
-from .evidence import VoxelGrid, _project, carve_hull
+from ...scenes import Scene
+from ...strokes.model import Voxels
+from ..discovery.evidence import VoxelGrid, _project, carve_hull
 
 
 @dataclass

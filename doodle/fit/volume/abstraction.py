@@ -32,8 +32,8 @@ import numpy as np
 import torch
 from scipy import ndimage
 
-from ..strokes.model import SuperquadricSet
-from ..strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
+from ...strokes.model import SuperquadricSet
+from ...strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
 
 #: Voxels along the longest side of the grid the superquadrics are fitted on.
 WORK_VOXELS = 96

@@ -25,10 +25,10 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..arrays import spread_indices
-from ..scenes import Scene
-from ..strokes.bezier import bezier_points
-from ..strokes.fitcurve import fit_cubics_many
+from ...arrays import spread_indices
+from ...scenes import Scene
+from ...strokes.bezier import bezier_points
+from ...strokes.fitcurve import fit_cubics_many
 from .evidence import Evidence, _project, curve_samples, depth_maps, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
@@ -623,8 +623,8 @@ def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None
     ``hull``'s outline draw, within ``reach`` pixels: a smooth part's outline is only as exact as its
     superquadric, and lines beside it are the same outline, not a place for curves (which would read as ticks
     along the rim)."""
-    from ..exporters.drawing import DrawOptions, draw_many
-    from ..strokes.model import CurveSet, StrokeSet
+    from ...exporters.drawing import DrawOptions, draw_many
+    from ...strokes.model import CurveSet, StrokeSet
 
     cams = [cand.evidence.cameras[v] for v in cand.views]
     drawings = draw_many(StrokeSet(frame, CurveSet(), sq, occluder=occluder, hull=hull), cams,
