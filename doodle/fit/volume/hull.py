@@ -19,6 +19,7 @@ from scipy import ndimage
 from ...scenes import Scene
 from ...strokes.model import Voxels
 from ..discovery.evidence import VoxelGrid, _project, carve_hull
+from .abstraction import thick_part
 
 
 @dataclass
@@ -36,22 +37,7 @@ def thick_volume(scene: Scene, thin: float = 0.06, max_voxels: int = 96) -> Volu
     grid, occupied = carve_hull(scene, max_voxels)
     size = grid.voxel * float(np.linalg.norm(occupied.shape))
     r = max(1, int(round(0.5 * thin * size / grid.voxel)))
-    ball = np.linalg.norm(np.mgrid[-r:r + 1, -r:r + 1, -r:r + 1], axis=0) <= r + 0.5
-    opened = ndimage.binary_opening(occupied, structure=ball)
-    # What the opening removed is thin only where it is also long. A small piece goes back when it is a
-    # sliver the opening shaved off a thick part (it touches what is left: a box keeps its corners) or a
-    # small compact part of its own (a knob, a bulb: at least r/2 deep), whose outline no curve can draw.
-    # A thin part seen at a few pixels across carves into loose fragments, each small: those stay out.
-    labels, n = ndimage.label(occupied & ~opened)
-    depth = ndimage.distance_transform_edt(occupied)
-    kept = opened.copy()
-    for k, box in enumerate(ndimage.find_objects(labels), start=1):
-        if box is None or np.linalg.norm([b.stop - b.start for b in box]) >= 6 * r:
-            continue
-        near = tuple(slice(max(b.start - 1, 0), b.stop + 1) for b in box)
-        piece = labels[near] == k
-        if (ndimage.binary_dilation(piece) & kept[near]).any() or depth[near][piece].max() >= 0.5 * r:
-            opened[near] |= piece
+    opened = thick_part(occupied, r)
     pts = grid.centres(np.argwhere(opened)).astype(np.float32)
     masks, thin_px, all_px = [], 0, 0
     for cam, mask in zip(scene.cameras, scene.masks):
