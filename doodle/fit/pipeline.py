@@ -37,6 +37,10 @@ STRONG_GAIN = 0.002
 FLAT_END = 0.3
 """ε₁ from which a superquadric is tried with flat ends (a cylinder's, a plate's) after it is grown."""
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
+#: Beside the abstraction, a superquadric draws its outline when this share of it lies on the object's lines
+#: (the older judge asks :data:`~.volume.outlines.MIN_OUTLINE_PRECISION`): the views then confirm it cell by
+#: cell, so a rough one (the lamp's shade, a cone no superquadric fits: 63 %) draws where it is right.
+ABSTRACT_MIN_PRECISION = 0.6
 #: Beside the abstraction, a superquadric whose outline the strong feature curves draw this much of only hides.
 MAX_OUTLINE_ON_CURVES = 0.75
 #: Options that must match to resume a checkpoint.
@@ -319,13 +323,13 @@ def _superquadrics_from_checkpoint(tensors: list) -> SuperquadricSet:
 def _recheck_outlines(sq: SuperquadricSet, frame: SceneFrame,
                       judge: tuple[list[Camera], list[np.ndarray], list[np.ndarray]],
                       finish: Callable[[SuperquadricSet], SuperquadricSet], say: Callable[[str], None],
-                      occluder: Voxels | None = None) -> SuperquadricSet:
+                      occluder: Voxels | None = None, min_precision: float = MIN_OUTLINE_PRECISION) -> SuperquadricSet:
     """Judge the drawn outlines again among the superquadrics that stay (``judge``: the cameras, line maps and
     masks of :func:`~doodle.fit.volume.outlines.keep_outlines`): once occluders that hid parts of an outline are
     dropped, more of it shows (on the Lego photos the cab's ellipsoid went from 75 % of its outline on the
     object's lines to 64 %). One that now strays draws no outline, and ``finish`` chooses the curves again."""
     precision = outline_precision(sq, frame, *judge, occluder=occluder)
-    stray = sq.drawn & (precision < MIN_OUTLINE_PRECISION)
+    stray = sq.drawn & (precision < min_precision)
     if not stray.any():
         return sq
     for i in np.flatnonzero(stray):
@@ -600,7 +604,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                 # The abstraction draws the outline: every superquadric draws its own unless it reads as a blob
                 # (most of it off the object's lines); the views then confirm it cell by cell.
                 precision = outline_precision(final_sq, frame, *judge, occluder=occluder)
-                for i in np.flatnonzero(precision < MIN_OUTLINE_PRECISION):
+                for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
                     say(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
                         "of its outline lies on the object's lines)")
                 # A crisp edge drawn by a feature curve beats the rounded outline along it: a superquadric
@@ -613,10 +617,10 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                                                     candidates.evidence.occupied)
                 on_curves = outline_on_curves(final_sq, CurveSet(start[crisp], cfg.width_px), frame, judge[0]) \
                     if crisp.any() else np.zeros(len(final_sq))
-                for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= MIN_OUTLINE_PRECISION)):
+                for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
                     say(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
                         f"{on_curves[i]:.0%} of it)")
-                final_sq = replace(final_sq, outline=(precision >= MIN_OUTLINE_PRECISION)
+                final_sq = replace(final_sq, outline=(precision >= ABSTRACT_MIN_PRECISION)
                                    & (on_curves < MAX_OUTLINE_ON_CURVES))
             else:
                 final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
@@ -625,7 +629,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         if discovering and candidates is not None and not interrupted:
             final_sq = finish_discovery(final_sq)
             if judge is not None and final_sq.drawn.any():
-                final_sq = _recheck_outlines(final_sq, frame, judge, finish_discovery, say, occluder)
+                final_sq = _recheck_outlines(final_sq, frame, judge, finish_discovery, say, occluder,
+                                             ABSTRACT_MIN_PRECISION if abstracting else MIN_OUTLINE_PRECISION)
         if judge is not None and final_sq.drawn.any():
             from .discovery.evidence import object_lines
 
