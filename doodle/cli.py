@@ -192,6 +192,20 @@ def _parse_size(ctx: click.Context, param: click.Parameter, value: str | None) -
     return (parts[0], parts[1] if len(parts) == 2 else None)
 
 
+def _parse_paper(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[float, float] | None:
+    """``WxH`` in millimetres (``210x297``, ``210x297mm``)."""
+    if value is None:
+        return None
+    text = value.lower().removesuffix("mm")
+    try:
+        w, h = (float(v) for v in text.split("x"))
+    except ValueError:
+        raise click.BadParameter(f"expected WxH in millimetres (e.g. 210x297), got {value!r}") from None
+    if not (30 <= w <= 5000 and 30 <= h <= 5000):
+        raise click.BadParameter(f"paper sides must be within 30..5000 mm, got {value!r}")
+    return (w, h)
+
+
 def _positive_float(ctx: click.Context, param: click.Parameter, value: float) -> float:
     if not value > 0:
         raise click.BadParameter(f"must be positive, got {value}")
@@ -282,9 +296,15 @@ def _draw_options(tolerance: float, hidden: str, no_silhouettes: bool = False, n
 @click.option("--sheet", type=click.Path(dir_okay=False, path_type=Path), help="Write all views in one grid PNG.")
 @click.option("--background", default=None,
               help="Background colour (#rrggbb) or 'transparent' (default: the style's).")
+@click.option("--plotter", is_flag=True,
+              help="Plotter-ready SVG: strokes that continue each other joined into one path, no pieces under 3 px, "
+                   "paths ordered to keep pen-up travel short, black unfilled lines, hidden lines left out.")
+@click.option("--paper", callback=_parse_paper, metavar="WxH", help="With --plotter: paper size in mm (e.g. "
+              "210x297); the drawing is fitted inside 10 mm margins [default: the image size at 96 dpi].")
 @style_options
 @view_options
 def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: bool, sheet: Path | None,
+           plotter: bool, paper: tuple[float, float] | None,
            background: str | None, style: str, no_filters: bool, views: int, scene_dir: Path | None, split: str, size,
            projection: str, tolerance: float, hidden: str | None, no_silhouettes: bool, no_curves: bool,
            min_piece: float | None, min_mark: float | None) -> None:
@@ -298,8 +318,13 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
 
     st = load_style(style)
     svg = want_svg if want_svg is not None else not (png or pdf)
+    if paper is not None and not plotter:
+        raise DoodleError("--paper applies to --plotter output only")
+    from .exporters.plotter import PlotterOptions
+
     opts = ExportOptions(svg=svg, png=png, pdf=pdf, sheet=sheet, background=_background(background), style=st,
                          filters=not no_filters, source=str(strokes),
+                         plotter=PlotterOptions(paper_mm=paper) if plotter else None,
                          draw=_draw_options(tolerance, hidden or st.hidden_mode or "hide", no_silhouettes, no_curves,
                                             min_piece, min_mark))
     with _progress(len(cams), "drawing") as bar:

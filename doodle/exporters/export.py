@@ -18,6 +18,7 @@ from ..strokes.model import StrokeSet
 from ..styles import Style
 from .drawing import DrawOptions, check_camera, draw_many
 from .raster import contact_sheet, svg_to_pdf, svg_to_png
+from .plotter import PlotterOptions, plotter_svg
 from .svg import to_svg
 from .workers import map_chunks
 
@@ -41,13 +42,18 @@ class ExportOptions:
     source: str = ""
     workers: int = 0
     """Processes drawing views in parallel; 0 = one per CPU core (at most 8); 1 = draw in this process."""
+    plotter: PlotterOptions | None = None
+    """Write plotter-ready SVGs instead (:mod:`.plotter`: joined, ordered, on paper; no style, no hidden lines)."""
 
 
 def _render_views(strokes: StrokeSet, opt: ExportOptions, cams: list[Camera]) -> list[tuple[str, bytes | None, bytes | None]]:
     """SVG text and, as asked, PNG and PDF bytes of some views (runs in worker processes)."""
     out = []
     for drawing in draw_many(strokes, cams, opt.draw):
-        svg = to_svg(drawing, opt.draw.tolerance, opt.source, opt.background, style=opt.style, filters=opt.filters)
+        if opt.plotter is not None:
+            svg = plotter_svg(drawing, opt.plotter, opt.source, opt.draw.tolerance)
+        else:
+            svg = to_svg(drawing, opt.draw.tolerance, opt.source, opt.background, style=opt.style, filters=opt.filters)
         png = svg_to_png(svg, None) if (opt.png or opt.sheet) else None
         pdf = svg_to_pdf(svg) if opt.pdf else None
         out.append((svg, png, pdf))

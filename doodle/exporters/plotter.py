@@ -1,0 +1,170 @@
+"""Plotter- and editor-ready SVG: a view's strokes joined into as few paths as a pen draws, ordered to keep the
+pen's travel in the air short, on paper of a physical size.
+
+A drawing holds one path per stroke, cut where the stroke is hidden or ends; strokes that continue each other
+on the page (a superquadric's outline and the curve that carries it on, the pieces of one outline either side
+of a seam) are separate paths that a plotter lifts its pen between and a designer must select one by one.
+:func:`chains` joins pieces whose ends meet within ``join_px`` with tangents turning by at most
+``max_turn_deg`` (the joint is snapped: the next piece starts where the last one ended), drops what is left
+shorter than ``min_length_px`` (a pen would dot it), and :func:`plot_order` orders the chains greedily, each
+from the end nearest to where the pen is, flipping it when its far end is nearer. Pure numpy and scipy.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .drawing import Drawing
+
+
+@dataclass
+class PlotterOptions:
+    """``doodle export --plotter``: paper, pen and the joining rule."""
+
+    paper_mm: tuple[float, float] | None = None
+    """Paper width and height in millimetres (``None``: the image's size at 96 dpi)."""
+    margin_mm: float = 10.0
+    pen_mm: float = 0.3
+    join_px: float = 1.0
+    max_turn_deg: float = 30.0
+    min_length_px: float = 3.0
+
+
+def _length(pieces: np.ndarray) -> float:
+    """Length of a chain of cubic pieces ``(K, 4, 2)`` (its control polygons': an upper bound, tight enough)."""
+    t = np.linspace(0.0, 1.0, 9)[:, None]
+    basis = np.concatenate([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], 1)
+    pts = np.einsum("tk,pkd->ptd", basis, pieces)
+    return float(np.linalg.norm(np.diff(pts, axis=1), axis=-1).sum())
+
+
+def _direction(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Unit direction from ``a`` towards ``b`` (or ``c`` where ``b`` coincides with ``a``)."""
+    d = b - a
+    if np.linalg.norm(d) < 1e-9:
+        d = c - a
+    n = np.linalg.norm(d)
+    return d / n if n > 1e-12 else d
+
+
+def _reverse(pieces: np.ndarray) -> np.ndarray:
+    return pieces[::-1, ::-1].copy()
+
+
+def chains(drawing: Drawing, layers: tuple[str, ...] = ("silhouettes", "curves"), join_px: float = 1.0,
+           max_turn_deg: float = 30.0, min_length_px: float = 3.0) -> list[np.ndarray]:
+    """The drawing's subpaths in ``layers`` joined into chains ``(K, 4, 2)`` (see the module doc)."""
+    from scipy.spatial import cKDTree
+
+    pieces = [sp for layer in layers for op in drawing.layer(layer) for sp in op.subpaths if len(sp)]
+    n = len(pieces)
+    if n == 0:
+        return []
+    ends = np.array([[p[0, 0], p[-1, 3]] for p in pieces])  # (n, 2 ends, 2)
+    tree = cKDTree(ends.reshape(-1, 2))
+    cos_max = math.cos(math.radians(max_turn_deg))
+    used = np.zeros(n, bool)
+
+    def out_dir(p: np.ndarray) -> np.ndarray:  # the tangent leaving a chain at its end
+        return _direction(p[-1, 3], p[-1, 3] + (p[-1, 3] - p[-1, 2]), p[-1, 3] + (p[-1, 3] - p[-1, 1]))
+
+    def extend(chain: list[np.ndarray]) -> list[np.ndarray]:
+        while True:
+            tail = chain[-1]
+            end, leave = tail[-1, 3], out_dir(tail)
+            best = None
+            for k in tree.query_ball_point(end, join_px):
+                i, side = divmod(k, 2)
+                if used[i]:
+                    continue
+                cand = pieces[i] if side == 0 else _reverse(pieces[i])
+                enter = _direction(cand[0, 0], cand[0, 1], cand[0, 2])
+                turn = float(leave @ enter) if np.linalg.norm(leave) and np.linalg.norm(enter) else 1.0
+                if turn >= cos_max and (best is None or turn > best[0]):
+                    best = (turn, i, cand)
+            if best is None:
+                return chain
+            _, i, cand = best
+            used[i] = True
+            cand = cand.copy()
+            cand[0, 0] = end  # snap the joint
+            chain.append(cand)
+
+    out = []
+    for i in np.argsort([-_length(p) for p in pieces], kind="stable"):  # longest first: they carry the rest
+        if used[i]:
+            continue
+        used[i] = True
+        chain = extend([pieces[i]])
+        back = extend([_reverse(np.concatenate(chain))])  # grow the front the same way
+        joined = np.concatenate(back) if len(back) > 1 else back[0]
+        joined = _reverse(joined)
+        if _length(joined) >= min_length_px:
+            out.append(joined)
+    return out
+
+
+def plot_order(paths: list[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> list[np.ndarray]:
+    """``paths`` ordered greedily by the pen's travel in the air, each flipped when its far end is nearer."""
+    left = list(range(len(paths)))
+    at = np.asarray(start, float)
+    out = []
+    while left:
+        d0 = [np.linalg.norm(paths[i][0, 0] - at) for i in left]
+        d1 = [np.linalg.norm(paths[i][-1, 3] - at) for i in left]
+        k = int(np.argmin(np.minimum(d0, d1)))
+        i = left.pop(k)
+        p = paths[i] if d0[k] <= d1[k] else _reverse(paths[i])
+        out.append(p)
+        at = p[-1, 3]
+    return out
+
+
+def pen_up_travel(paths: list[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> float:
+    """Distance the pen travels in the air, from ``start`` through ``paths`` in their order (pixels)."""
+    at, total = np.asarray(start, float), 0.0
+    for p in paths:
+        total += float(np.linalg.norm(p[0, 0] - at))
+        at = p[-1, 3]
+    return total
+
+
+def plotter_svg(drawing: Drawing, options: PlotterOptions | None = None, source: str = "",
+                tolerance: float = 0.05) -> str:
+    """One black, unfilled path per chain, in plotting order, on paper of ``options.paper_mm`` (the drawing
+    fitted inside the margins, centred), in one Inkscape layer ``plot``; hidden lines are left out."""
+    import json
+
+    import svgwrite
+
+    from .svg import INKSCAPE_NS, _Metadata, camera_metadata, digits_for, path_data
+    from .drawing import PathOp
+
+    opt = options or PlotterOptions()
+    cam = drawing.camera
+    paths = plot_order(chains(drawing, join_px=opt.join_px, max_turn_deg=opt.max_turn_deg,
+                              min_length_px=opt.min_length_px))
+    px_mm = 25.4 / 96.0
+    W, H = opt.paper_mm or (cam.width * px_mm, cam.height * px_mm)
+    m = opt.margin_mm if opt.paper_mm else 0.0
+    scale = min((W - 2 * m) / cam.width, (H - 2 * m) / cam.height)  # mm per pixel
+    ox, oy = (W - scale * cam.width) / 2, (H - scale * cam.height) / 2
+    dwg = svgwrite.Drawing(size=(f"{W:g}mm", f"{H:g}mm"), profile="full", debug=False)
+    dwg.viewbox(0, 0, W, H)
+    dwg.attribs["xmlns:inkscape"] = INKSCAPE_NS
+    meta = {**camera_metadata(drawing, source), "plotter": {"paths": len(paths), "pen_up_px": round(pen_up_travel(paths), 1),
+                                                             "mm_per_px": round(scale, 6)}}
+    dwg.add(_Metadata(json.dumps(meta, sort_keys=True), id="doodle-metadata"))
+    g = dwg.g(id="layer-plot", fill="none", stroke="black", **{"stroke-width": f"{opt.pen_mm:g}",
+                                                               "stroke-linecap": "round", "stroke-linejoin": "round"})
+    g.attribs["inkscape:groupmode"] = "layer"
+    g.attribs["inkscape:label"] = "plot"
+    g.attribs["transform"] = f"translate({ox:.4f} {oy:.4f}) scale({scale:.6f})"
+    digits = digits_for(tolerance)
+    for k, p in enumerate(paths):
+        g.add(dwg.path(d=path_data(PathOp(f"stroke-{k:03d}", "plot", [p], [False]), digits), id=f"stroke-{k:03d}"))
+    dwg.add(g)
+    return dwg.tostring() + "\n"
