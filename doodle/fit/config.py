@@ -13,6 +13,9 @@ AUTO_MAX_CURVES = 128
 #: :func:`doodle.fit.discovery.discover.choose_curves`): an object with more lines than the sketch holds is still drawn whole.
 AUTO_OUTLINE_CURVES = 128
 
+#: See :attr:`FitConfig.whole_outline`.
+WHOLE_OUTLINE = 0.8
+
 InitMethod = Literal["auto", "points", "hull", "bbox"]
 Outline = Literal["superquadrics", "hull"]
 Detail = Literal["low", "medium", "high"]
@@ -162,6 +165,14 @@ class FitConfig:
         64 curves in all keep a file under 2 kB (the rocker arm: 91 curves and 2.6 kB with 80 more allowed,
         F 0.915; 52 and 1.7 kB with 20, F 0.904)."""
         return 0 if self.curves != "auto" or self.outline_hull else self.level.outline_curves
+
+    @property
+    def whole_outline(self) -> float:
+        """Beside superquadrics, outline curves go on past the level's budget while the outline drawn is under
+        this share of the outline pixels (``doodle.fit.discovery.discover.choose_curves``): an intricate object
+        no superquadric abstracts (Lego: held-out recall 0.646 at ``medium`` without) is drawn whole in a larger
+        file, while a teapot or a cow, whose superquadrics close the outline, keeps its 1 kB."""
+        return 0.0 if self.curves != "auto" or self.outline_hull else WHOLE_OUTLINE
 
     @property
     def curve_iterations(self) -> int:

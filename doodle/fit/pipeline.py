@@ -21,7 +21,7 @@ from ..cameras import Camera
 from ..errors import DoodleError
 from ..scenes import Scene
 from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet, Voxels
-from .config import FitConfig
+from .config import AUTO_OUTLINE_CURVES, FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
@@ -523,7 +523,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
         ratio = max(candidates.evidence.cameras[0].width / work.cameras[0].width, 1.0)
         taken = outline_pixel_ids(candidates, sq, frame, max(1, round(1.5 * ratio)), occluder) if sq.drawn.any() else None
         return choose_curves(candidates, cfg.max_curves, cfg.min_gain, taken, polish=polish,
-                             outline_curves=cfg.outline_curves, log=log)
+                             outline_curves=cfg.outline_curves, whole_outline=cfg.whole_outline,
+                             most_outline=AUTO_OUTLINE_CURVES, log=log)
 
     def curves_beside(sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
         """The curves chosen beside ``sq``'s outlines, and per curve the judge view it was traced in (or -1)."""
