@@ -139,7 +139,7 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
     """Write the 3D strokes of STROKES for 3D tools: OBJ or PLY, in the stroke file's units and axes."""
     from dataclasses import replace
 
-    from .atomic import atomic_path
+    from .atomic import write_bytes
     from .exporters.scene3d import to_obj, to_ply
     from .strokes import CurveSet, SuperquadricSet, read_strokes
 
@@ -153,8 +153,7 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
         raise DoodleError(f"{out_path}: unknown 3D format {suffix or '(no suffix)'!r} (use .obj or .ply)")
     data = to_obj(s, samples).encode() if suffix == ".obj" else to_ply(s, samples)
     try:
-        with atomic_path(out_path) as tmp:
-            tmp.write_bytes(data)
+        write_bytes(out_path, data)
     except OSError as exc:
         raise DoodleError(f"{out_path}: cannot write ({exc.strerror or exc})") from None
     click.echo(f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {len(data)} bytes")
@@ -167,12 +166,11 @@ def blender_addon(out_path: Path) -> None:
     """Write the Blender add-on and script that imports .doodle files (curves as exact Bézier curves,
     superquadrics as meshes, orbit cameras). Install it in Blender's preferences, or run it headless:
     blender -b --python doodle_import.py -- strokes.doodle --save strokes.blend"""
-    from .atomic import atomic_path
+    from .atomic import write_text
     from .exporters.scene3d import blender_addon_source
 
     try:
-        with atomic_path(out_path) as tmp:
-            tmp.write_text(blender_addon_source(), encoding="utf-8")
+        write_text(out_path, blender_addon_source())
     except OSError as exc:
         raise DoodleError(f"{out_path}: cannot write ({exc.strerror or exc})") from None
     click.echo(f"wrote {out_path} (Blender: Edit > Preferences > Add-ons > Install; or blender -b --python "

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .drawing import Drawing
+from ..strokes.bezier import bezier_points
+from .drawing import Drawing, PathOp
 
 
 @dataclass
@@ -34,10 +35,8 @@ class PlotterOptions:
 
 
 def _length(pieces: np.ndarray) -> float:
-    """Length of a chain of cubic pieces ``(K, 4, 2)`` (its control polygons': an upper bound, tight enough)."""
-    t = np.linspace(0.0, 1.0, 9)[:, None]
-    basis = np.concatenate([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], 1)
-    pts = np.einsum("tk,pkd->ptd", basis, pieces)
+    """Length of a chain of cubic pieces ``(K, 4, 2)``, along 8 chords a piece."""
+    pts = bezier_points(pieces, np.linspace(0.0, 1.0, 9))
     return float(np.linalg.norm(np.diff(pts, axis=1), axis=-1).sum())
 
 
@@ -141,7 +140,6 @@ def plotter_svg(drawing: Drawing, options: PlotterOptions | None = None, source:
     import svgwrite
 
     from .svg import INKSCAPE_NS, _Metadata, camera_metadata, digits_for, path_data
-    from .drawing import PathOp
 
     opt = options or PlotterOptions()
     cam = drawing.camera

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..strokes.bezier import bezier_points
 from ..strokes.model import StrokeSet, SuperquadricSet
 from ..strokes.superquadric import quaternion_to_matrix, surface_points_at
 from .silhouettes import angle_warp
@@ -48,9 +49,7 @@ def superquadric_mesh(sq: SuperquadricSet, i: int, n_eta: int = 24, n_omega: int
 
 def curve_polylines(strokes: StrokeSet, samples: int = CURVE_SAMPLES) -> np.ndarray:
     """``(N, samples, 3)`` points on each curve, evenly in its parameter, ends included."""
-    t = np.linspace(0.0, 1.0, samples)[:, None]
-    basis = np.concatenate([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], 1)  # (T, 4)
-    return np.einsum("tk,nkd->ntd", basis, strokes.curves.control_points)
+    return bezier_points(strokes.curves.control_points, np.linspace(0.0, 1.0, samples))
 
 
 def _f(v: float) -> str:

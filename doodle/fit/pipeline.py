@@ -25,7 +25,8 @@ from .config import AUTO_OUTLINE_CURVES, FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
-from .volume.outlines import MIN_OUTLINE_PRECISION, confirm_outlines, outline_on_curves, outline_precision, raster_layer
+from .volume.outlines import (ABSTRACT_MIN_PRECISION, MIN_OUTLINE_PRECISION, abstraction_outlines, confirm_outlines,
+                              outline_precision, raster_layer)
 from .params import CurveParams, SuperquadricParams, initial_curves, initial_superquadrics
 from .targets import build_targets, working_scene
 
@@ -37,12 +38,6 @@ STRONG_GAIN = 0.002
 FLAT_END = 0.3
 """ε₁ from which a superquadric is tried with flat ends (a cylinder's, a plate's) after it is grown."""
 OUTLINE_VIEWS = 24  # training views on which a superquadric's outline must raise the sketch's F
-#: Beside the abstraction, a superquadric draws its outline when this share of it lies on the object's lines
-#: (the older judge asks :data:`~.volume.outlines.MIN_OUTLINE_PRECISION`): the views then confirm it cell by
-#: cell, so a rough one (the lamp's shade, a cone no superquadric fits: 63 %) draws where it is right.
-ABSTRACT_MIN_PRECISION = 0.6
-#: Beside the abstraction, a superquadric whose outline the strong feature curves draw this much of only hides.
-MAX_OUTLINE_ON_CURVES = 0.75
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
                "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "outline", "detail", "occluder")
@@ -602,27 +597,16 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
                      [object_lines(work.images[v], work.masks[v]) for v in judge_views],
                      [work.masks[v] for v in judge_views])
             if abstracting:
-                # The abstraction draws the outline: every superquadric draws its own unless it reads as a blob
-                # (most of it off the object's lines); the views then confirm it cell by cell.
-                precision = outline_precision(final_sq, frame, *judge, occluder=occluder)
-                for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
-                    say(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
-                        "of its outline lies on the object's lines)")
-                # A crisp edge drawn by a feature curve beats the rounded outline along it: a superquadric
-                # whose outline the strong feature curves already draw (a CAD part's box) only hides.
+                # The abstraction draws the outline, measured against the crisp feature curves discovery found
+                # first (creases, not traces across smooth faces)
                 crisp = (contour == 0) if contour is not None else np.ones(len(start), bool)
-                if candidates is not None and crisp.any():  # creases, not traces across smooth faces
+                if candidates is not None and crisp.any():
                     from .discovery.texture import on_smooth_faces
 
                     crisp[crisp] = ~on_smooth_faces(start[crisp], candidates.evidence.grid,
                                                     candidates.evidence.occupied)
-                on_curves = outline_on_curves(final_sq, CurveSet(start[crisp], cfg.width_px), frame, judge[0]) \
-                    if crisp.any() else np.zeros(len(final_sq))
-                for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
-                    say(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
-                        f"{on_curves[i]:.0%} of it)")
-                final_sq = replace(final_sq, outline=(precision >= ABSTRACT_MIN_PRECISION)
-                                   & (on_curves < MAX_OUTLINE_ON_CURVES))
+                final_sq = abstraction_outlines(final_sq, CurveSet(start[crisp], cfg.width_px), frame, *judge,
+                                                occluder=occluder, log=say)
             else:
                 final_sq = keep_outlines(final_sq, CurveSet(start, cfg.width_px, normals, contour), frame, *judge,
                                          curves_beside=curves_beside if candidates is not None else None,

@@ -575,18 +575,17 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken,
                                        weight=weight, pixel_weight=pixel_weight, smooth=cand.smooth, outline=cand.rim)
         if outline_curves > 0 and len(chosen) == max_curves and len(cand.rim):
-            more, more_gains = complete_outline(cand.covers, cand.off, chosen, cand.rim,
-                                                sum(ev.lines[v].size for v in cand.views), outline_curves,
-                                                OUTLINE_MIN_GAIN * len(cand.rim), taken, weight)
+            def for_outline(budget: int) -> tuple[list[int], list[float]]:
+                return complete_outline(cand.covers, cand.off, chosen, cand.rim,
+                                        sum(ev.lines[v].size for v in cand.views), budget,
+                                        OUTLINE_MIN_GAIN * len(cand.rim), taken, weight)
+
+            more, more_gains = for_outline(outline_curves)
             chosen, gains = chosen + more, gains + more_gains
             if whole_outline > 0 and most_outline > len(more):
                 drawn = [cand.covers[k] for k in chosen] + ([taken] if taken is not None else [])
-                share = float(np.isin(cand.rim, np.concatenate(drawn)).mean()) if drawn else 0.0
-                if share < whole_outline:
-                    extra, extra_gains = complete_outline(cand.covers, cand.off, chosen, cand.rim,
-                                                          sum(ev.lines[v].size for v in cand.views),
-                                                          most_outline - len(more), OUTLINE_MIN_GAIN * len(cand.rim),
-                                                          taken, weight)
+                if np.isin(cand.rim, np.concatenate(drawn)).mean() < whole_outline:  # go on past the budget
+                    extra, extra_gains = for_outline(most_outline - len(more))
                     chosen, gains = chosen + extra, gains + extra_gains
                     outline_curves += len(extra)
     else:

@@ -34,6 +34,7 @@ from scipy import ndimage
 
 from ...strokes.model import SuperquadricSet
 from ...strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
+from ..params import SuperquadricParams
 
 #: Voxels along the longest side of the grid the superquadrics are fitted on.
 WORK_VOXELS = 96
@@ -43,7 +44,6 @@ MIN_PART_IOU = 0.55
 MERGE_IOU = 0.9
 #: Weight of the other parts' voxels as "outside" for a part's own superquadric (overlap is cheap).
 OTHER_PART_WEIGHT = 0.1
-SHAPE_LO, SHAPE_HI = 0.1, 1.9
 #: The starts of each part's superquadric: shape ``(ε₁, ε₂)``, frame (the part's principal axes, or the grid's,
 #: which are fitted to the object's box: a square plate's principal axes are any two in its plane) and the
 #: factor from a variance along an axis to the half-size (5 for a ball, 3 for a box).
@@ -64,6 +64,11 @@ class Abstraction:
     """Share of the hull's volume in its thick part."""
 
 
+def ball(r: int) -> np.ndarray:
+    """A digital ball of radius ``r`` voxels, ``bool (2r + 1,) * 3``: the structuring element of the openings."""
+    return np.linalg.norm(np.mgrid[-r:r + 1, -r:r + 1, -r:r + 1], axis=0) <= r + 0.5
+
+
 def thick_part(occupied: np.ndarray, radius: int) -> np.ndarray:
     """The thick part of a voxel volume: opened by a ball of ``radius`` voxels, with the small pieces the
     opening took back when they are slivers of a thick part (they touch it: a box keeps its corners) or small
@@ -71,8 +76,7 @@ def thick_part(occupied: np.ndarray, radius: int) -> np.ndarray:
     A thin part seen at a few pixels across carves into loose fragments, each small: those stay out.
     """
     r = max(int(radius), 1)
-    ball = np.linalg.norm(np.mgrid[-r:r + 1, -r:r + 1, -r:r + 1], axis=0) <= r + 0.5
-    opened = ndimage.binary_opening(occupied, structure=ball)
+    opened = ndimage.binary_opening(occupied, structure=ball(r))
     labels, _ = ndimage.label(occupied & ~opened)
     depth = ndimage.distance_transform_edt(occupied)
     kept = opened.copy()
@@ -130,28 +134,6 @@ def _initial(points: np.ndarray, frame: np.ndarray | None, factor: float) -> tup
     return np.sqrt(np.maximum(var, 1e-12) * factor), matrix_to_quaternion(frame), c
 
 
-class _Params(torch.nn.Module):
-    """Unconstrained superquadric parameters: log scale, logit shape on [0.1, 1.9], quaternion, centre."""
-
-    def __init__(self, scale: np.ndarray, shape: np.ndarray, rotation: np.ndarray, translation: np.ndarray):
-        super().__init__()
-        f32 = dict(dtype=torch.float32)
-        s = np.clip((shape - SHAPE_LO) / (SHAPE_HI - SHAPE_LO), 1e-3, 1 - 1e-3)
-        self.log_scale = torch.nn.Parameter(torch.tensor(np.log(scale), **f32))
-        self.raw_shape = torch.nn.Parameter(torch.tensor(np.log(s / (1 - s)), **f32))
-        self.rotation = torch.nn.Parameter(torch.tensor(rotation, **f32))
-        self.translation = torch.nn.Parameter(torch.tensor(translation, **f32))
-
-    def values(self):
-        shape = SHAPE_LO + (SHAPE_HI - SHAPE_LO) * torch.sigmoid(self.raw_shape)
-        return self.log_scale.exp(), shape, self.rotation / self.rotation.norm(dim=-1, keepdim=True), self.translation
-
-    def to_set(self) -> SuperquadricSet:
-        scale, shape, q, t = (v.detach().double().numpy() for v in self.values())
-        q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
-        return SuperquadricSet(scale, np.clip(shape, SHAPE_LO, SHAPE_HI), q, t)
-
-
 def radial_distance(points: torch.Tensor, scale, shape, rotation, translation) -> torch.Tensor:
     """Approximate signed distance ``(M, P)`` of world points ``(P, 3)`` (or ``(M, P, 3)``, each superquadric
     its own points) to each superquadric: along the ray from its centre, ``|x| (1 − f^(−ε₁/2))`` (negative
@@ -181,7 +163,7 @@ def _loss(d: torch.Tensor, target: torch.Tensor, weight: torch.Tensor, tau: floa
     return lp + ln
 
 
-def _optimise(params: _Params, loss_fn: Callable[[], torch.Tensor], steps: int, lr: float) -> None:
+def _optimise(params: SuperquadricParams, loss_fn: Callable[[], torch.Tensor], steps: int, lr: float) -> None:
     groups = [{"params": [params.log_scale, params.raw_shape, params.rotation], "lr": lr},
               {"params": [params.translation], "lr": lr * float(params.log_scale.detach().exp().mean())}]
     opt = torch.optim.Adam(groups)
@@ -244,8 +226,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
     tau = 0.5 * cvox
     # what one superquadric leaves beside another (a ring at a neck, a rim along a seam) is no part: a residual
     # is opened by half the thin parts' radius
-    r2 = max(1, radius // 2)
-    sliver = np.linalg.norm(np.mgrid[-r2:r2 + 1, -r2:r2 + 1, -r2:r2 + 1], axis=0) <= r2 + 0.5
+    sliver = ball(max(1, radius // 2))
     found: list[SuperquadricSet] = []
     union = np.zeros(len(cells), bool)  # within a voxel of the union
     best, parts, tried = 0.0, 0, np.zeros(thick.shape, bool)
@@ -324,7 +305,7 @@ def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np
     # the best is kept.
     pts = to_world(ijk.astype(np.float64))
     starts = [_initial(pts, axes.T if frame == "grid" else None, factor) for _, frame, factor in STARTS]
-    params = _Params(np.array([a for a, _, _ in starts]), np.array([e for e, _, _ in STARTS]),
+    params = SuperquadricParams(np.array([a for a, _, _ in starts]), np.array([e for e, _, _ in STARTS]),
                      np.array([q for _, q, _ in starts]), np.array([c for _, _, c in starts]))
     P = torch.from_numpy(to_world(sub.astype(np.float64)).astype(np.float32))
     T, W = torch.from_numpy(target)[None], torch.from_numpy(weight)[None]
@@ -364,7 +345,7 @@ def _refine_union(sq: SuperquadricSet, centres: np.ndarray, in_thick: np.ndarray
     sel = rng.choice(len(centres), min(len(centres), max_points), replace=False)
     C = torch.from_numpy(centres[sel].astype(np.float32))
     Y = torch.from_numpy(in_thick[sel].astype(np.float32))[None]
-    joint = _Params(sq.scale, sq.shape, sq.rotation, sq.translation)
+    joint = SuperquadricParams(sq.scale, sq.shape, sq.rotation, sq.translation)
 
     def loss() -> torch.Tensor:
         d = radial_distance(C, *joint.values())  # (M, P)

@@ -100,22 +100,30 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
     return (2 * p * r / (p + r) if p + r > 0 else 0.0), p, r
 
 
-def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
-                      masks: list[np.ndarray], tau: float = 0.008, occluder: Voxels | None = None) -> np.ndarray:
-    """Per superquadric, the share of its own visible outline (the others and the ``occluder`` hiding what lies
-    behind it) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks'
-    boundary, pooled over ``cameras``."""
+def outline_layers(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], occluder: Voxels | None = None
+                   ) -> list[dict[int, np.ndarray]]:
+    """Per view, each superquadric's own visible outline as drawn alone, ``{index: bool (H, W)}``. Hiding uses
+    every superquadric whether drawn or not (and the ``occluder``), so one drawing of all of them, split by
+    owner, gives each one's outline."""
     from ...exporters.drawing import DrawOptions, draw_many
 
-    # Hiding uses every superquadric whether drawn or not, so one drawing of all of them, split by owner,
-    # gives each one's outline as drawn alone.
     every = replace(sq, outline=np.ones(len(sq), bool))
     drawings = draw_many(StrokeSet(frame, CurveSet(), every, occluder=occluder), cameras,
                          DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5,
                                      min_mark=0.0))
+    return raster_layer(drawings, cameras, "silhouettes", _silhouette_owner)
+
+
+def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
+                      masks: list[np.ndarray], tau: float = 0.008, occluder: Voxels | None = None,
+                      layers: list[dict[int, np.ndarray]] | None = None) -> np.ndarray:
+    """Per superquadric, the share of its own visible outline (the others and the ``occluder`` hiding what lies
+    behind it) within ``tau`` of the image size (at least a pixel) of the views' ``lines`` or the masks'
+    boundary, pooled over ``cameras``. ``layers``: :func:`outline_layers` of the same, when already drawn."""
+    if layers is None:
+        layers = outline_layers(sq, frame, cameras, occluder)
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
-    for cam, per, lm, m in zip(cameras, raster_layer(drawings, cameras, "silhouettes", _silhouette_owner),
-                               lines, masks):
+    for cam, per, lm, m in zip(cameras, layers, lines, masks):
         reach = max(1, round(tau * max(cam.width, cam.height)))
         near = ndimage.binary_dilation(lm | (m ^ ndimage.binary_erosion(m)), iterations=reach)
         for i, img in per.items():
@@ -124,24 +132,55 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
     return on / np.maximum(ink, 1)
 
 
-def outline_on_curves(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, cameras: list[Camera],
-                      reach_px: int = 2) -> np.ndarray:
-    """Per superquadric, the share of its own visible outline (as :func:`outline_precision` draws it) within
-    ``reach_px`` of where ``curves`` are drawn, pooled over ``cameras``: how much of it the curves draw."""
+def outline_on_curves(layers: list[dict[int, np.ndarray]], n: int, curves: CurveSet, frame: SceneFrame,
+                      cameras: list[Camera], reach_px: int = 2) -> np.ndarray:
+    """Per superquadric (``n`` of them, their outlines ``layers`` as :func:`outline_layers` draws them), the
+    share of its outline within ``reach_px`` of where ``curves`` are drawn, pooled over ``cameras``: how much
+    of it the curves draw."""
     from ...exporters.drawing import DrawOptions, draw_many
 
-    every = replace(sq, outline=np.ones(len(sq), bool))
-    opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
-    outlines = draw_many(StrokeSet(frame, CurveSet(), every), cameras, replace(opts, curves=False))
-    drawn = draw_many(StrokeSet(frame, curves, every.subset(np.zeros(len(sq), bool))), cameras, opts)
-    on, ink = np.zeros(len(sq)), np.zeros(len(sq))
-    for cam, per, d in zip(cameras, raster_layer(outlines, cameras, "silhouettes", _silhouette_owner), drawn):
+    drawn = draw_many(StrokeSet(frame, curves), cameras,
+                      DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0))
+    on, ink = np.zeros(n), np.zeros(n)
+    for cam, per, d in zip(cameras, layers, drawn):
         lines = ink_paths(np.zeros((cam.height, cam.width), bool), [*d.layer("curves"), *d.layer("silhouettes")])
         near = ndimage.binary_dilation(lines, iterations=reach_px) if lines.any() else lines
         for i, img in per.items():
             on[i] += (img & near).sum()
             ink[i] += img.sum()
     return on / np.maximum(ink, 1)
+
+
+ABSTRACT_MIN_PRECISION = 0.6
+"""Beside the abstraction, a superquadric draws its outline when this share of it lies on the object's lines
+(the older judge, :func:`keep_outlines`, asks :data:`MIN_OUTLINE_PRECISION`): the views then confirm it cell
+by cell, so a rough one (the lamp's shade, a cone no superquadric fits: 63 %) draws where it is right."""
+
+MAX_OUTLINE_ON_CURVES = 0.75
+"""Beside the abstraction, a superquadric whose outline the crisp feature curves draw this much of only hides."""
+
+
+def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
+                         lines: list[np.ndarray], masks: list[np.ndarray], occluder: Voxels | None = None,
+                         log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
+    """Which superquadrics of the abstraction draw their outline (``sq`` with ``outline`` set): every one
+    unless it reads as a blob (under :data:`ABSTRACT_MIN_PRECISION` of it on the object's ``lines``), or the
+    ``crisp`` feature curves already draw :data:`MAX_OUTLINE_ON_CURVES` of it — a crisp edge beats the rounded
+    outline along it (a CAD part's box). The others only hide what lies behind them."""
+    layers = outline_layers(sq, frame, cameras, occluder)
+    precision = outline_precision(sq, frame, cameras, lines, masks, occluder=occluder, layers=layers)
+    for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
+        log(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
+            "of its outline lies on the object's lines)")
+    on_curves = np.zeros(len(sq))
+    if len(crisp):
+        # measured on the outlines as drawn without the occluder
+        plain = layers if occluder is None else outline_layers(sq, frame, cameras)
+        on_curves = outline_on_curves(plain, len(sq), crisp, frame, cameras)
+    for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
+        log(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
+            f"{on_curves[i]:.0%} of it)")
+    return replace(sq, outline=(precision >= ABSTRACT_MIN_PRECISION) & (on_curves < MAX_OUTLINE_ON_CURVES))
 
 
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
