@@ -98,9 +98,7 @@ def chains(drawing: Drawing, layers: tuple[str, ...] = ("silhouettes", "curves")
             continue
         used[i] = True
         chain = extend([pieces[i]])
-        back = extend([_reverse(np.concatenate(chain))])  # grow the front the same way
-        joined = np.concatenate(back) if len(back) > 1 else back[0]
-        joined = _reverse(joined)
+        joined = _reverse(np.concatenate(extend([_reverse(np.concatenate(chain))])))  # the front, grown the same way
         if _length(joined) >= min_length_px:
             out.append(joined)
     return out
