@@ -32,8 +32,8 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 
 
 #: ``doodle --help`` lists the commands in the order a user meets them.
-COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "styles", "eval", "convert", "export3d",
-                 "blender-addon")
+COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "view", "styles", "eval", "convert",
+                 "export3d", "blender-addon")
 
 
 class DoodleGroup(click.Group):
@@ -332,6 +332,52 @@ def export(strokes: Path, out_dir: Path, want_svg: bool | None, png: bool, pdf: 
         click.echo(f"wrote {len(views)} files for {len(cams)} views to {out_dir}" + (f" and sheet {sheet}" if sheet else ""))
     else:
         click.echo(f"wrote sheet {sheet} of {len(cams)} views")
+
+
+def _parse_elevations(ctx: click.Context, param: click.Parameter, value: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in value.split(",") if v.strip())
+    except ValueError:
+        raise click.BadParameter(f"expected degrees separated by commas (e.g. -30,0,30,60), got {value!r}") from None
+    if not values:
+        raise click.BadParameter("give at least one elevation")
+    return values
+
+
+@cli.command(short_help="Write an offline HTML page to turn the sketch around.")
+@click.argument("strokes", type=click.Path(path_type=Path))
+@click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="HTML file to write [default: STROKES with the suffix .html].")
+@click.option("--style", default="ink", show_default=True,
+              help="Style the page opens with: a built-in name or a .toml/.json style file (built-ins are offered too).")
+@click.option("--hidden", type=click.Choice(["show", "dash", "hide"]), default=None,
+              help="Hidden-line mode the page opens with [default: the style's, else hide].")
+@click.option("--size", type=click.IntRange(16, 4096), default=512, show_default=True, help="View size in pixels (square).")
+@click.option("--azimuths", type=click.IntRange(1, 720), default=72, show_default=True,
+              help="Views around the up axis (72: one every 5 degrees).")
+@click.option("--elevations", default="-45,-30,-15,0,15,30,45,60,75", show_default=True, callback=_parse_elevations,
+              help="Rows of views, degrees above the horizon, separated by commas.")
+@click.option("--tolerance", type=float, default=0.05, show_default=True, callback=_positive_float,
+              help="Max distance in px between drawn cubics and the exact projection.")
+def view(strokes: Path, out_path: Path | None, style: str, hidden: str | None, size: int, azimuths: int,
+         elevations: tuple[float, ...], tolerance: float) -> None:
+    """Write one self-contained HTML file (no network, opens from disk) holding the exporter's drawings of
+    STROKES from every 5 degrees around and 15 degrees up: drag to turn, wheel to zoom, choose a style and
+    the hidden lines, save the view as SVG."""
+    from .exporters.viewer import ViewerOptions, write_viewer
+    from .strokes import read_strokes
+    from .styles import load_style
+
+    s = read_strokes(strokes)
+    st = load_style(style)
+    out = out_path if out_path is not None else strokes.with_suffix(".html")
+    opts = ViewerOptions(azimuths=azimuths, elevations=elevations, size=size, tolerance=tolerance, style=st,
+                         hidden=hidden or st.hidden_mode or "hide")
+    opts.check()
+    n = azimuths * len(elevations)
+    with _progress(n, "drawing") as bar:
+        write_viewer(s, out, opts, source=str(strokes), progress=lambda k, total: bar.update(k - bar.n))
+    click.echo(f"wrote {out}: {n} views, {out.stat().st_size / 1e6:.2f} MB (open it in a browser; no network needed)")
 
 
 @cli.command(short_help="Render a seamless turntable: GIF, APNG, MP4 or SVG.")
