@@ -41,6 +41,23 @@ def test_pieces_that_continue_each_other_are_one_path_and_corners_are_not():
     assert np.allclose(joined[1, 0], joined[0, 3])  # the joint is snapped: no gap
 
 
+def test_plotter_paths_turn_corners_and_prefer_the_smooth_continuation():
+    """A plotter's pen stays down at a corner; where a straight continuation and a corner meet at one end,
+    the straight one is taken."""
+    d = _drawing(_line((10, 10), (40, 10)), _line((40, 10), (40, 60)),  # a corner
+                 _line((40, 10), (80, 10)))  # and the straight way on
+    svg = plotter_svg(d)
+    assert svg.count("<path") == 2
+    (straight,) = [c for c in chains(d, max_turn_deg=180.0) if len(c) == 2]
+    assert sorted([tuple(straight[0, 0]), tuple(straight[-1, 3])]) == [(10, 10), (80, 10)]
+
+
+def test_a_loop_in_pieces_is_one_closed_path():
+    d = _drawing(_line((10, 10), (50, 10)), _line((50, 10), (30, 40)), _line((30, 40), (10, 10)))
+    (c,) = chains(d, max_turn_deg=180.0)
+    assert len(c) == 3 and np.allclose(c[0, 0], c[-1, 3])
+
+
 def test_reversed_pieces_join_too():
     d = _drawing(_line((10, 10), (40, 10)), _line((70, 10), (40.3, 10)))  # the second drawn backwards
     (c,) = chains(d)
@@ -62,6 +79,26 @@ def test_plotter_svg_is_on_paper_in_millimetres():
     svg = plotter_svg(d, PlotterOptions(paper_mm=(210, 297)))
     assert 'width="210mm"' in svg and 'height="297mm"' in svg and 'viewBox="0,0,210,297"' in svg
     assert svg.count("<path") == 1 and 'fill="none"' in svg and 'stroke="black"' in svg
+
+
+def test_plotter_pen_is_its_width_on_paper():
+    """The pen's width is millimetres on the paper, not scaled with the drawing: a 3 mm pen on A4 inks a band
+    3 mm wide (rasterised at 10 px/mm), and the path's coordinates are the paper's."""
+    import io
+    import re
+
+    from PIL import Image
+
+    from doodle.exporters.raster import svg_to_png
+
+    d = _drawing(_line((10, 50), (90, 50)))
+    svg = plotter_svg(d, PlotterOptions(paper_mm=(210, 297), pen_mm=3.0))
+    assert "transform" not in svg
+    xs = [float(v) for v in re.search(r' d="M([-\d.]+) ', svg).groups()]
+    assert 10 <= xs[0] <= 200
+    ink = np.asarray(Image.open(io.BytesIO(svg_to_png(svg, size=(2100, 2970)))).convert("L")) < 128
+    column = ink[:, ink.any(axis=0).nonzero()[0].mean().astype(int)]
+    assert abs(column.sum() - 30) <= 2
 
 
 def test_export_plotter_and_vpype_reads_it(tmp_path):

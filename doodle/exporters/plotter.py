@@ -5,7 +5,8 @@ A drawing holds one path per stroke, cut where the stroke is hidden or ends; str
 on the page (a superquadric's outline and the curve that carries it on, the pieces of one outline either side
 of a seam) are separate paths that a plotter lifts its pen between and a designer must select one by one.
 :func:`chains` joins pieces whose ends meet within ``join_px`` with tangents turning by at most
-``max_turn_deg`` (the joint is snapped: the next piece starts where the last one ended), drops what is left
+``max_turn_deg``, smoothest joints first (the joint is snapped: the next piece starts where the last one
+ended; a plotter joins at any turn, its pen need not lift at a corner), drops what is left
 shorter than ``min_length_px`` (a pen would dot it), and :func:`plot_order` orders the chains greedily, each
 from the end nearest to where the pen is, flipping it when its far end is nearer. Pure numpy and scipy.
 """
@@ -30,7 +31,10 @@ class PlotterOptions:
     margin_mm: float = 10.0
     pen_mm: float = 0.3
     join_px: float = 1.0
-    max_turn_deg: float = 30.0
+    max_turn_deg: float = 180.0
+    """Largest turn at a joint. The pen need not lift at a corner, so a plotter's paths join there too; where
+    several pieces meet, the smoothest continuation is taken (:func:`chains` alone keeps 30°: strokes that
+    continue each other)."""
     min_length_px: float = 3.0
 
 
@@ -55,52 +59,58 @@ def _reverse(pieces: np.ndarray) -> np.ndarray:
 
 def chains(drawing: Drawing, layers: tuple[str, ...] = ("silhouettes", "curves"), join_px: float = 1.0,
            max_turn_deg: float = 30.0, min_length_px: float = 3.0) -> list[np.ndarray]:
-    """The drawing's subpaths in ``layers`` joined into chains ``(K, 4, 2)`` (see the module doc)."""
+    """The drawing's subpaths in ``layers`` joined into chains ``(K, 4, 2)`` (see the module doc).
+
+    Joints are taken smoothest first over the whole view, each end at most once: where a straight
+    continuation and a corner meet at one end, the continuation wins whichever piece is longer. Pieces that
+    close a loop are joined round it.
+    """
     from scipy.spatial import cKDTree
 
     pieces = [sp for layer in layers for op in drawing.layer(layer) for sp in op.subpaths if len(sp)]
     n = len(pieces)
     if n == 0:
         return []
-    ends = np.array([[p[0, 0], p[-1, 3]] for p in pieces])  # (n, 2 ends, 2)
-    tree = cKDTree(ends.reshape(-1, 2))
-    cos_max = math.cos(math.radians(max_turn_deg))
+    # end 2i is piece i's start, 2i + 1 its end; ``away`` the unit tangent leaving the piece there
+    ends = np.array([e for p in pieces for e in (p[0, 0], p[-1, 3])])
+    away = np.array([d for p in pieces for d in (_direction(p[0, 0], p[0, 0] - (p[0, 1] - p[0, 0]), p[0, 0] - (p[0, 2] - p[0, 0])),
+                                                   _direction(p[-1, 3], p[-1, 3] + (p[-1, 3] - p[-1, 2]),
+                                                              p[-1, 3] + (p[-1, 3] - p[-1, 1])))])
+    pairs = cKDTree(ends).query_pairs(join_px, output_type="ndarray")
+    pairs = pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2]
+    # leaving one piece and entering the other: the turn's cosine (1: straight on)
+    cos = -np.einsum("pk,pk->p", away[pairs[:, 0]], away[pairs[:, 1]])
+    ok = cos >= math.cos(math.radians(max_turn_deg)) - 1e-9
+    pairs, cos = pairs[ok], cos[ok]
+    gap = np.linalg.norm(ends[pairs[:, 0]] - ends[pairs[:, 1]], axis=1)
+    partner = np.full(2 * n, -1)
+    for a, b in pairs[np.lexsort((gap, -cos))]:
+        if partner[a] < 0 and partner[b] < 0:  # two free ends of one chain close its loop
+            partner[a], partner[b] = b, a
+
     used = np.zeros(n, bool)
 
-    def out_dir(p: np.ndarray) -> np.ndarray:  # the tangent leaving a chain at its end
-        return _direction(p[-1, 3], p[-1, 3] + (p[-1, 3] - p[-1, 2]), p[-1, 3] + (p[-1, 3] - p[-1, 1]))
-
-    def extend(chain: list[np.ndarray]) -> list[np.ndarray]:
-        while True:
-            tail = chain[-1]
-            end, leave = tail[-1, 3], out_dir(tail)
-            best = None
-            for k in tree.query_ball_point(end, join_px):
-                i, side = divmod(k, 2)
-                if used[i]:
-                    continue
-                cand = pieces[i] if side == 0 else _reverse(pieces[i])
-                enter = _direction(cand[0, 0], cand[0, 1], cand[0, 2])
-                turn = float(leave @ enter) if np.linalg.norm(leave) and np.linalg.norm(enter) else 1.0
-                if turn >= cos_max and (best is None or turn > best[0]):
-                    best = (turn, i, cand)
-            if best is None:
-                return chain
-            _, i, cand = best
+    def walk(enter: int) -> np.ndarray:
+        """The chain entered at end ``enter``, followed until a free end or back round its loop."""
+        out: list[np.ndarray] = []
+        while enter >= 0 and not used[enter // 2]:
+            i = enter // 2
             used[i] = True
-            cand = cand.copy()
-            cand[0, 0] = end  # snap the joint
-            chain.append(cand)
+            piece = pieces[i] if enter % 2 == 0 else _reverse(pieces[i])
+            if out:
+                piece = piece.copy()
+                piece[0, 0] = out[-1][-1, 3]  # snap the joint
+            out.append(piece)
+            enter = partner[enter ^ 1]
+        return np.concatenate(out)
 
+    starts = [e for e in range(2 * n) if partner[e] < 0] + list(range(0, 2 * n, 2))  # open chains, then loops
     out = []
-    for i in np.argsort([-_length(p) for p in pieces], kind="stable"):  # longest first: they carry the rest
-        if used[i]:
-            continue
-        used[i] = True
-        chain = extend([pieces[i]])
-        joined = _reverse(np.concatenate(extend([_reverse(np.concatenate(chain))])))  # the front, grown the same way
-        if _length(joined) >= min_length_px:
-            out.append(joined)
+    for e in starts:
+        if not used[e // 2]:
+            joined = walk(e)
+            if _length(joined) >= min_length_px:
+                out.append(joined)
     return out
 
 
@@ -158,9 +168,11 @@ def plotter_svg(drawing: Drawing, options: PlotterOptions | None = None, source:
                                                                "stroke-linecap": "round", "stroke-linejoin": "round"})
     g.attribs["inkscape:groupmode"] = "layer"
     g.attribs["inkscape:label"] = "plot"
-    g.attribs["transform"] = f"translate({ox:.4f} {oy:.4f}) scale({scale:.6f})"
-    digits = digits_for(tolerance)
+    # coordinates in millimetres on the paper (no transform: a transform would scale the pen's width too)
+    digits = digits_for(tolerance * scale)
+    offset = np.array([ox, oy])
     for k, p in enumerate(paths):
-        g.add(dwg.path(d=path_data(PathOp(f"stroke-{k:03d}", "plot", [p], [False]), digits), id=f"stroke-{k:03d}"))
+        g.add(dwg.path(d=path_data(PathOp(f"stroke-{k:03d}", "plot", [p * scale + offset], [False]), digits),
+                       id=f"stroke-{k:03d}"))
     dwg.add(g)
     return dwg.tostring() + "\n"
