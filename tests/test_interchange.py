@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from doodle.cameras import orbit_cameras
 from doodle.cli import cli
 from doodle.exporters.scene3d import blender_addon_source, curve_polylines, superquadric_mesh, to_obj, to_ply
-from doodle.strokes import write_strokes
+from doodle.strokes import read_strokes, write_strokes
 
 from helpers import random_strokes
 
@@ -124,12 +124,16 @@ print("RESULT " + json.dumps(out))
 
 @pytest.mark.timeout(300)
 @pytest.mark.skipif(shutil.which("blender") is None, reason="Blender is not installed")
-def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_path):
+@pytest.mark.parametrize("suffix", [".doodle", ".doodleb"])
+def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_path, suffix):
     """In the real Blender, headless: one Bézier curve per stroke whose control points equal the file's to
     1e-5, one mesh per superquadric, and orbit cameras that see the curves where doodle's own cameras draw
-    them (within 0.05 px at 200 × 100)."""
-    src = tmp_path / "s.doodle"
+    them (within 0.05 px at 200 × 100). A binary file is converted by the ``doodle`` command."""
+    if suffix == ".doodleb" and shutil.which("doodle") is None:
+        pytest.skip("the doodle command is not on the PATH")
+    src = tmp_path / f"s{suffix}"
     write_strokes(src, strokes)
+    strokes = read_strokes(src)  # the binary file's positions are quantised
     addon = tmp_path / "doodle_import.py"
     addon.write_text(blender_addon_source())
     script = tmp_path / "check.py"

@@ -9,7 +9,8 @@ Script use, headless::
 
     blender -b --python doodle_import.py -- strokes.doodle [--views 8] [--bevel 0.004] [--save out.blend]
 
-Binary ``.doodleb`` files: convert first (``doodle convert s.doodleb s.doodle``). Written out by
+Binary ``.doodleb`` files are converted by the ``doodle`` command when it is on the PATH (Blender's Python
+has no numpy to decode them), else convert first: ``doodle convert s.doodleb s.doodle``. Written out by
 ``doodle blender-addon``; this file needs nothing but Blender's own Python (bpy, mathutils).
 """
 
@@ -25,7 +26,11 @@ bl_info = {
 
 import json  # noqa: E402
 import math  # noqa: E402
+import os  # noqa: E402
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 
 import bpy  # noqa: E402
 from mathutils import Vector  # noqa: E402
@@ -95,12 +100,34 @@ def orbit(scene, views):
     return out
 
 
+def read_document(path):
+    """The stroke file as JSON data; a binary file is converted by the ``doodle`` command on the PATH."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if raw[:4] == b"DDLB":
+        doodle = shutil.which("doodle")
+        if doodle is None:
+            raise ValueError(f"{path}: a binary stroke file and no doodle command to convert it "
+                             f"(run: doodle convert {path} {os.path.splitext(path)[0]}.doodle)")
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "strokes.doodle")
+            done = subprocess.run([doodle, "convert", path, out], capture_output=True, text=True)
+            if done.returncode != 0:
+                raise ValueError((done.stderr.strip() or f"{path}: doodle convert failed").splitlines()[-1])
+            with open(out, "rb") as fh:
+                raw = fh.read()
+    try:
+        doc = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError):
+        doc = None
+    if not isinstance(doc, dict) or doc.get("format") != "doodle-strokes":
+        raise ValueError(f"{path}: not a doodle stroke file")
+    return doc
+
+
 def import_strokes(path, views=8, bevel=None, collection_name=None):
     """Create the stroke file's curves, superquadrics and orbit cameras in a new collection; returns it."""
-    with open(path, encoding="utf-8") as fh:
-        doc = json.load(fh)
-    if doc.get("format") != "doodle-strokes":
-        raise ValueError(f"{path}: not a doodle stroke file (binary files: doodle convert s.doodleb s.doodle)")
+    doc = read_document(path)
     scene = doc["scene"]
     radius = float(scene.get("radius", 1.0))
     coll = bpy.data.collections.new(collection_name or "doodle")
