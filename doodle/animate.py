@@ -17,7 +17,7 @@ from .atomic import atomic_path
 from .cameras import orbit_cameras
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many
-from .exporters.workers import map_chunks
+from .workers import map_chunks
 from .exporters.raster import svg_to_png
 from .exporters.svg import to_svg
 from .strokes.model import StrokeSet

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from doodle.exporters.workers import map_chunks
+from doodle.workers import map_chunks
 
 REPO = Path(__file__).resolve().parents[1]
 

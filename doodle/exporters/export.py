@@ -20,7 +20,7 @@ from .drawing import DrawOptions, check_camera, draw_many
 from .raster import contact_sheet, svg_to_pdf, svg_to_png
 from .plotter import PlotterOptions, plotter_svg
 from .svg import to_svg
-from .workers import map_chunks
+from ..workers import map_chunks
 
 
 @dataclass

@@ -36,7 +36,7 @@ from ..strokes.model import StrokeSet
 from ..styles import Style, builtin_names, load_style
 from .drawing import LAYERS, DrawOptions, HiddenMode, check_camera, draw_many
 from .svg import camera_metadata, digits_for, path_data
-from .workers import map_chunks
+from ..workers import map_chunks
 
 #: The page's template: markup, style sheet and script; the data goes where ``DATA_MARK`` is.
 TEMPLATE = "web/viewer.html"

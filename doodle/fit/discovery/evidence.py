@@ -439,7 +439,7 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
     """
     from concurrent.futures import ThreadPoolExecutor
 
-    from ...exporters.workers import cpu_count
+    from ...workers import cpu_count
 
     if scene.masks is None:
         raise ValueError("the scene has no masks")

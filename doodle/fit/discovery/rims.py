@@ -217,7 +217,7 @@ def find_rims(cameras: list[Camera], masks: list[np.ndarray], grid: VoxelGrid, o
     14°)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from ...exporters.workers import cpu_count
+    from ...workers import cpu_count
 
     density = ndimage.gaussian_filter(occupied.astype(np.float32), 1.0)
     free = free_space(occupied)

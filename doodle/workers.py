@@ -59,14 +59,14 @@ def _watch_parent(parent_pid: int, interval: float = 0.25) -> None:
             os._exit(1)
 
 
-def _init_worker(parent_pid: int) -> None:
+def init_worker(parent_pid: int) -> None:
     """Runs first in every worker: leave Ctrl-C to the parent, and die with it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True).start()
 
 
 @contextlib.contextmanager
-def _without_main_script() -> Iterator[None]:
+def without_main_script() -> Iterator[None]:
     """Start workers without re-running the caller's script in them.
 
     ``spawn`` and ``forkserver`` children import ``__main__`` by default, so a plain script that fits and
@@ -86,7 +86,7 @@ def _without_main_script() -> Iterator[None]:
             main.__dict__.update(saved)
 
 
-def _stop(pool: ProcessPoolExecutor) -> None:
+def stop_pool(pool: ProcessPoolExecutor) -> None:
     """Stop a pool now: cancel what has not started and terminate the workers (do not wait for them)."""
     processes = list(getattr(pool, "_processes", {}).values())  # no public handle on the workers
     pool.shutdown(wait=False, cancel_futures=True)
@@ -152,7 +152,7 @@ def map_chunks(job: Callable[[Sequence[T]], list[R]], items: Sequence[T], worker
             yield from results
         return
     n_pool = min(workers - 1, len(chunks) - 1)
-    pool = ProcessPoolExecutor(n_pool, mp_context=worker_context(), initializer=_init_worker,
+    pool = ProcessPoolExecutor(n_pool, mp_context=worker_context(), initializer=init_worker,
                                initargs=(os.getpid(),))
     ends = _TwoEnds(len(chunks))
     futures: dict[int, Future[list[R]]] = {}
@@ -168,7 +168,7 @@ def map_chunks(job: Callable[[Sequence[T]], list[R]], items: Sequence[T], worker
                 if i is None:
                     slots.release()
                     return
-                with _without_main_script():  # a worker may start here
+                with without_main_script():  # a worker may start here
                     futures[i] = pool.submit(job, chunks[i])
                 futures[i].add_done_callback(lambda _: slots.release())
         except Exception:  # the pool broke (a worker was killed): this process draws what is left, below
@@ -193,6 +193,6 @@ def map_chunks(job: Callable[[Sequence[T]], list[R]], items: Sequence[T], worker
     except BaseException:
         ends.close()
         feeder.join()
-        _stop(pool)
+        stop_pool(pool)
         raise
     pool.shutdown(wait=True)
