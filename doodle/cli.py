@@ -32,7 +32,7 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 
 
 #: ``doodle --help`` lists the commands in the order a user meets them.
-COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "view", "styles", "eval", "convert",
+COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "view", "batch", "styles", "eval", "convert",
                  "export3d", "blender-addon")
 
 
@@ -378,6 +378,56 @@ def view(strokes: Path, out_path: Path | None, style: str, hidden: str | None, s
     with _progress(n, "drawing") as bar:
         write_viewer(s, out, opts, source=str(strokes), progress=lambda k, total: bar.update(k - bar.n))
     click.echo(f"wrote {out}: {n} views, {out.stat().st_size / 1e6:.2f} MB (open it in a browser; no network needed)")
+
+
+@cli.command(short_help="Fit, export and animate every object of a manifest.")
+@click.argument("manifest", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Output folder: one folder per object, summary.json, sheet.png, index.html.")
+@click.option("--jobs", type=click.IntRange(0, 256), default=0, show_default=True,
+              help="Objects made at once on this machine (0: half the cores).")
+@click.option("--threads", type=click.IntRange(0, 256), default=0, show_default=True,
+              help="Threads per object (0: the cores shared out between the jobs).")
+@click.option("--ray", "ray_address", metavar="auto|ADDRESS", default=None,
+              help="Run the objects as Ray tasks: 'auto' joins a running cluster or starts one here, or a "
+                   "cluster's address (needs pip install -e '.[ray]'; OUT must be shared by the nodes).")
+@click.option("--gpus", type=click.FloatRange(0, 64), default=0.0, show_default=True,
+              help="GPUs each Ray task asks for.")
+@click.option("--retry-failed", is_flag=True, help="Make again the objects whose last attempt failed.")
+def batch(manifest: Path, out_dir: Path, jobs: int, threads: int, ray_address: str | None, gpus: float,
+          retry_failed: bool) -> None:
+    """Fit, export and animate every object listed in MANIFEST (TOML, JSON or CSV) into OUT/NAME/, resumably:
+    objects done before are skipped, a failed object is recorded with its reason and the others go on.
+    Exit code 0 when every object is made, 3 when some failed (see OUT/summary.json)."""
+    import time
+
+    from .batch import BatchOptions, run_batch
+
+    start = time.perf_counter()
+    bar = None
+
+    def progress(done: int, total: int, name: str) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = _progress(total, "objects")
+            bar.unit = "object"
+        hours = (time.perf_counter() - start) / 3600
+        bar.set_postfix_str(f"{done / hours:.0f} objects/h, last {name}", refresh=False)
+        bar.update(done - bar.n)
+
+    try:
+        result = run_batch(manifest, out_dir, BatchOptions(jobs=jobs, threads=threads, ray=ray_address, gpus=gpus,
+                                                           retry_failed=retry_failed), log=click.echo, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    ok = len(result.records) - len(result.failed)
+    per_hour = result.made / (result.seconds / 3600) if result.made and result.seconds > 0 else 0.0
+    click.echo(f"{ok} of {len(result.records)} objects made ({result.made} this run"
+               + (f", {per_hour:.0f} objects/h" if result.made else "") + f"); summary in {out_dir / 'summary.json'}")
+    if result.failed:
+        click.echo(f"failed: {', '.join(result.failed)}", err=True)
+        sys.exit(3)
 
 
 @cli.command(short_help="Render a seamless turntable: GIF, APNG, MP4 or SVG.")

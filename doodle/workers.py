@@ -31,8 +31,21 @@ R = TypeVar("R")
 PRELOAD = ["doodle.exporters.export", "doodle.animate"]
 
 
+#: Environment variable that caps :func:`cpu_count` (``doodle batch`` sets it in each worker, so that
+#: objects fitted side by side share the cores instead of each taking them all).
+THREADS_ENV = "DOODLE_THREADS"
+
+
 def cpu_count() -> int:
-    """CPU cores this process may run on (the affinity mask, not the machine's count)."""
+    """CPU cores this process may run on (the affinity mask, not the machine's count), at most
+    ``$DOODLE_THREADS`` when that is set."""
+    cap = os.environ.get(THREADS_ENV, "")
+    if cap.isdigit() and int(cap) > 0:
+        return min(int(cap), _cores())
+    return _cores()
+
+
+def _cores() -> int:
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # macOS, Windows
