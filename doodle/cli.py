@@ -385,7 +385,7 @@ def view(strokes: Path, out_path: Path | None, style: str, hidden: str | None, s
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Output folder: one folder per object, summary.json, sheet.png, index.html.")
 @click.option("--jobs", type=click.IntRange(0, 256), default=0, show_default=True,
-              help="Objects made at once on this machine (0: half the cores).")
+              help="Objects made at once on this machine (0: one a core, as many as the memory holds).")
 @click.option("--threads", type=click.IntRange(0, 256), default=0, show_default=True,
               help="Threads per object (0: the cores shared out between the jobs).")
 @click.option("--ray", "ray_address", metavar="auto|ADDRESS", default=None,

@@ -55,10 +55,11 @@ def _write_scenes(root: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def made(tmp_path_factory):
-    """The manifest run once through the CLI: (manifest, output folder, exit code, output)."""
+    """The manifest run once through the CLI, two objects at once with one thread each (what the default is
+    on 2 cores): (manifest, output folder, exit code, output)."""
     root = tmp_path_factory.mktemp("batch")
     manifest = _write_scenes(root)
-    r = CliRunner().invoke(cli, ["batch", str(manifest), "-o", str(root / "out")])
+    r = CliRunner().invoke(cli, ["batch", str(manifest), "-o", str(root / "out"), "--jobs", "2", "--threads", "1"])
     return manifest, root / "out", r.exit_code, r.output
 
 
@@ -105,8 +106,9 @@ def test_bad_manifest_is_one_line_naming_file_and_object(tmp_path, text, needle)
 
 
 def test_plan_shares_the_cores():
-    assert plan(2) == (1, 2) and plan(16) == (8, 2) and plan(1) == (1, 1)
-    assert plan(8, jobs=4) == (4, 2) and plan(8, jobs=3, threads=1) == (3, 1)
+    assert plan(2) == (2, 1) and plan(16) == (16, 1) and plan(1) == (1, 1)
+    assert plan(16, memory=24 * 2 ** 30) == (8, 2)  # 3 GB an object
+    assert plan(8, jobs=4) == (4, 2) and plan(8, jobs=3, threads=1) == (3, 1) and plan(8, threads=2) == (4, 2)
 
 
 def test_fingerprint_follows_options_and_scene_files(tmp_path):
@@ -166,7 +168,10 @@ def test_rerun_does_no_work(made):
 def test_killed_run_resumes_to_identical_outputs(made, tmp_path):
     manifest, reference, _, _ = made
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "doodle", "batch", str(manifest), "-o", str(out), "--jobs", "1"],
+    # one object at a time, so one is in flight when the first is done; one thread each, as the reference
+    # run had (a fit's floats depend on its thread count)
+    proc = subprocess.Popen([sys.executable, "-m", "doodle", "batch", str(manifest), "-o", str(out), "--jobs", "1",
+                             "--threads", "1"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 240
     while not (out / "snowman" / "record.json").exists() and time.time() < deadline and proc.poll() is None:
@@ -181,7 +186,7 @@ def test_killed_run_resumes_to_identical_outputs(made, tmp_path):
             break
         time.sleep(0.2)
     assert orphans == [], "workers outlived the killed batch"
-    result = run_batch(manifest, out, BatchOptions(jobs=1), log=lambda m: None)
+    result = run_batch(manifest, out, BatchOptions(jobs=1, threads=1), log=lambda m: None)
     assert 1 <= result.made <= 2 and sorted(result.failed) == ["broken"]
     for name in ("snowman", "box"):
         assert _outputs(out / name) == _outputs(reference / name), name
@@ -197,6 +202,6 @@ def test_ray_engine_gives_the_local_engines_outputs(made, tmp_path):
     one = tmp_path / "one.toml"
     one.write_text(MANIFEST.split("[[objects]]")[0] + '[[objects]]\nscene = "%s"\n' % (manifest.parent / "snowman"))
     out = tmp_path / "out"
-    r = CliRunner().invoke(cli, ["batch", str(one), "-o", str(out), "--ray", "auto"])
+    r = CliRunner().invoke(cli, ["batch", str(one), "-o", str(out), "--ray", "auto", "--threads", "1"])
     assert r.exit_code == 0, r.output
     assert _outputs(out / "snowman") == _outputs(reference / "snowman")

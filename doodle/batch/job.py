@@ -153,8 +153,9 @@ def run_object(task: Task) -> dict[str, Any]:
             record["log"] = log
             (tmp / RECORD).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
         return record
-    except (DoodleError, OSError, ValueError, MemoryError) as exc:
+    except (DoodleError, OSError, ValueError, MemoryError) as exc:  # the object's input or the machine
         reason = _one_line(exc)
+        record["traceback"] = traceback.format_exc()
     except KeyboardInterrupt:
         raise
     except Exception as exc:  # a bug: still one line here, the traceback in the record

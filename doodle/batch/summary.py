@@ -16,8 +16,12 @@ CELL = 256
 
 
 def _tile(text: str, color: str) -> Image.Image:
+    """A plain cell saying why there is no picture (wrapped to the cell, at most eight lines)."""
+    import textwrap
+
     tile = Image.new("RGB", (CELL, CELL), "#f2f0eb")
-    ImageDraw.Draw(tile).text((12, CELL // 2 - 6), text[:38], fill=color)
+    lines = textwrap.wrap(text, 38, break_long_words=True)[:8]
+    ImageDraw.Draw(tile).multiline_text((12, CELL // 2 - 7 * len(lines)), "\n".join(lines), fill=color, spacing=4)
     return tile
 
 
