@@ -78,7 +78,7 @@ def write_index(out: Path, summary: dict[str, Any]) -> Path:
 <style>
 body {{ font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; }}
 main {{ display: flex; flex-wrap: wrap; gap: 1em; }}
-figure {{ margin: 0; width: 240px; padding: 0.6em; border: 1px solid #ddd; border-radius: 4px; }}
+figure {{ margin: 0; width: 240px; padding: 0.6em; border: 1px solid #ddd; border-radius: 4px; overflow-wrap: anywhere; }}
 figure.error {{ border-color: #d99; background: #fff5f5; }} figure.pending {{ color: #888; }}
 img {{ display: block; margin: 0 auto 0.4em; }}
 </style></head>
