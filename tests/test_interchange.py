@@ -44,11 +44,28 @@ def test_superquadric_mesh_is_closed_and_on_the_surface(shape):
     assert np.allclose(fx, 1.0, atol=1e-6)
 
 
+def _obj_polylines(lines: list[str]) -> dict[str, list[int]]:
+    """Each object's ``l`` elements followed as one chain of 0-based vertex indices (asserting they chain)."""
+    out: dict[str, list[int]] = {}
+    name = ""
+    for ln in lines:
+        if ln.startswith("o "):
+            name = ln[2:]
+        elif ln.startswith("l "):
+            idx = [int(k) - 1 for k in ln.split()[1:]]
+            chain = out.setdefault(name, [])
+            assert not chain or chain[-1] == idx[0], f"{name}: the segments do not chain"
+            chain += idx if not chain else idx[1:]
+    return out
+
+
 def test_obj_has_one_polyline_and_one_exact_cubic_per_curve(strokes):
     text = to_obj(strokes)
     lines = text.splitlines()
     assert sum(ln.startswith("o curve-") for ln in lines) == len(strokes.curves)
-    assert sum(ln.startswith("l ") for ln in lines) == len(strokes.curves)
+    chains = _obj_polylines(lines)
+    assert sorted(chains) == [f"curve-{n:03d}" for n in range(len(strokes.curves))]
+    assert all(len(c) == len(curve_polylines(strokes)[0]) for c in chains.values())
     assert sum(ln.startswith("curv ") for ln in lines) == len(strokes.curves)
     assert sum(ln.startswith("o superquadric-") for ln in lines) == len(strokes.superquadrics)
     verts = np.array([[float(x) for x in ln.split()[1:]] for ln in lines if ln.startswith("v ")])
@@ -57,8 +74,38 @@ def test_obj_has_one_polyline_and_one_exact_cubic_per_curve(strokes):
         idx = [int(k) - 1 for k in ln.split()[3:]]
         assert np.allclose(verts[idx], strokes.curves.control_points[n], atol=1e-5)
     # the polylines' points are on the cubics
-    first = [int(k) - 1 for k in next(ln for ln in lines if ln.startswith("l ")).split()[1:]]
-    assert np.allclose(verts[first], curve_polylines(strokes)[0], atol=1e-5)
+    for n, poly in enumerate(curve_polylines(strokes)):
+        assert np.allclose(verts[chains[f"curve-{n:03d}"]], poly, atol=1e-5)
+
+
+def test_obj_free_form_blocks_are_skipped_whole_by_readers_that_skip_them(strokes):
+    """Assimp (Open3D, game engines) skips from ``cstype`` to ``end``: every free-form statement must be inside
+    such a block and nothing else (a ``parm`` outside is read as a point element and fails the whole file)."""
+    inside = False
+    for ln in to_obj(strokes).splitlines():
+        word = ln.split()[0]
+        if word == "cstype":
+            assert not inside
+            inside = True
+        elif inside:
+            assert word in {"deg", "curv", "parm", "end"}, ln
+            inside = word != "end"
+        else:
+            assert word in {"#", "o", "v", "l", "f"}, ln
+    assert not inside
+
+
+def test_obj_loads_in_open3d(strokes, tmp_path):
+    """Open3D reads OBJ through Assimp: the superquadric meshes come in whole, the free-form blocks skipped."""
+    o3d = pytest.importorskip("open3d")
+    (tmp_path / "s.obj").write_text(to_obj(strokes))
+    mesh = o3d.io.read_triangle_mesh(str(tmp_path / "s.obj"))
+    per_sq = superquadric_mesh(strokes.superquadrics, 0)
+    assert len(mesh.triangles) == len(per_sq[1]) * len(strokes.superquadrics)
+    assert len(mesh.vertices) == len(per_sq[0]) * len(strokes.superquadrics)
+    (tmp_path / "s.ply").write_bytes(to_ply(strokes))
+    lines = o3d.io.read_line_set(str(tmp_path / "s.ply"))
+    assert len(lines.lines) == len(strokes.curves) * (len(curve_polylines(strokes)[0]) - 1)
 
 
 def test_obj_and_ply_load_in_trimesh(strokes, tmp_path):
@@ -149,3 +196,56 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     for cam, seen in zip(cams, out["views"]):
         uv, _ = cam.project(strokes.curves.control_points[:, 0])
         assert np.allclose(np.array(seen), uv, atol=0.05), (np.array(seen) - uv)
+
+
+OBJ_CHECK = """
+import bpy, json
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.wm.obj_import(filepath=OBJ)
+out = {}
+for o in bpy.context.scene.objects:
+    m = o.data
+    out[o.name] = {"verts": [list(o.matrix_world @ v.co) for v in m.vertices], "edges": [list(e.vertices) for e in m.edges],
+                   "faces": len(m.polygons)}
+print("RESULT " + json.dumps(out))
+"""
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.skipif(shutil.which("blender") is None, reason="Blender is not installed")
+def test_blenders_own_obj_importer_reads_a_polyline_per_curve_and_closed_meshes(strokes, tmp_path):
+    """Blender's built-in OBJ importer (no add-on): an object per curve whose edges chain through every sample
+    in order, and a closed mesh per superquadric."""
+    obj = tmp_path / "s.obj"
+    obj.write_text(to_obj(strokes))
+    script = tmp_path / "check.py"
+    script.write_text(OBJ_CHECK.replace("OBJ", repr(str(obj))))
+    r = subprocess.run(["blender", "-b", "--factory-startup", "--python", str(script)], capture_output=True,
+                       text=True, timeout=240)
+    line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    assert line is not None, r.stdout[-2000:] + r.stderr[-2000:]
+    out = json.loads(line[len("RESULT "):])
+    # Blender turns OBJ's y-up into its z-up on import (-Y forward): x, y, z → x, −z, y
+    to_blender = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]])
+    for n, poly in enumerate(curve_polylines(strokes)):
+        o = out[f"curve-{n:03d}"]
+        verts = np.array(o["verts"])
+        assert len(verts) == len(poly) and len(o["edges"]) == len(poly) - 1 and o["faces"] == 0
+        # walk the chain from an end: it visits the samples in order
+        nbrs: dict[int, list[int]] = {}
+        for a, b in o["edges"]:
+            nbrs.setdefault(a, []).append(b)
+            nbrs.setdefault(b, []).append(a)
+        start = next(k for k, v in nbrs.items() if len(v) == 1)
+        walk, prev = [start], -1
+        while len(walk) < len(verts):
+            nxt = next(k for k in nbrs[walk[-1]] if k != prev)
+            prev = walk[-1]
+            walk.append(nxt)
+        pts = verts[walk]
+        want = poly @ to_blender.T
+        assert np.allclose(pts, want, atol=1e-4) or np.allclose(pts, want[::-1], atol=1e-4)
+    v, f = superquadric_mesh(strokes.superquadrics, 0)
+    for i in range(len(strokes.superquadrics)):
+        o = out[f"superquadric-{i:02d}"]
+        assert o["faces"] == len(f) and len(o["verts"]) - len(o["edges"]) + o["faces"] == 2

@@ -2,9 +2,10 @@
 
 Coordinates are the stroke file's scene units, unchanged, in its own frame: ``frame.up`` is written in a
 header comment (NeRF-synthetic and the procedural scenes: +z up, as Blender; COLMAP: whatever the model's
-frame is). Curves become sampled polylines — OBJ ``l`` elements, PLY ``edge`` elements, one per curve, every
-sample on the exact cubic — and, in OBJ, also the exact cubic as a free-form ``curv`` (``cstype bezier``,
-degree 3), which readers that know free-form geometry use and the others skip. Superquadrics become closed
+frame is). Curves become sampled polylines, every sample on the exact cubic — in OBJ an object per curve
+whose polyline is a chain of ``l`` segments, in PLY ``edge`` elements — and, in OBJ, also the exact cubic as
+a free-form ``curv`` (``cstype bezier``, degree 3, in a block from ``cstype`` to ``end``), which readers that
+know free-form geometry use and the others skip (checked with trimesh, Open3D/Assimp and Blender's importer). Superquadrics become closed
 triangle meshes (:func:`superquadric_mesh`), each in its own object. Pure numpy: no torch.
 """
 
@@ -57,22 +58,25 @@ def _f(v: float) -> str:
 
 
 def to_obj(strokes: StrokeSet, samples: int = CURVE_SAMPLES) -> str:
-    """Wavefront OBJ text: per curve an object ``curve-NNN`` with its polyline (``l``) and its exact cubic
+    """Wavefront OBJ text: per curve an object ``curve-NNN`` with its polyline (``l`` segments) and its exact cubic
     (``curv``, on the control points, written after the polyline's vertices), per superquadric an object
     ``superquadric-NN`` with its closed mesh (``f``)."""
     up = ", ".join(_f(v) for v in strokes.frame.up)
     out = [f"# doodle stroke set: {len(strokes.curves)} curves, {len(strokes.superquadrics)} superquadrics",
-           f"# scene units; up = ({up}); polylines sample the exact cubic Béziers given as curv",
-           "cstype bezier", "deg 3"]
+           f"# scene units; up = ({up}); polylines sample the exact cubic Béziers given as curv"]
     base = 1
     for n, (poly, ctrl) in enumerate(zip(curve_polylines(strokes, samples), strokes.curves.control_points)):
         out.append(f"o curve-{n:03d}")
         out += [f"v {_f(p[0])} {_f(p[1])} {_f(p[2])}" for p in poly]
-        out.append("l " + " ".join(str(base + k) for k in range(len(poly))))
+        # the polyline as a chain of two-point ``l`` elements: Blender 3.4's importer keeps only the first two
+        # points of a longer one; every reader takes these (one object, one connected chain a curve)
+        out += [f"l {base + k} {base + k + 1}" for k in range(len(poly) - 1)]
         base += len(poly)
         out += [f"v {_f(p[0])} {_f(p[1])} {_f(p[2])}" for p in ctrl]
-        out.append(f"curv 0.0 1.0 {base} {base + 1} {base + 2} {base + 3}")
-        out += ["parm u 0.0 1.0", "end"]
+        # the free-form state is set again before each curve, so that the block runs from ``cstype`` to
+        # ``end``: readers that skip free-form geometry (Assimp, so Open3D and game engines) skip exactly it
+        out += ["cstype bezier", "deg 3", f"curv 0.0 1.0 {base} {base + 1} {base + 2} {base + 3}",
+                "parm u 0.0 1.0", "end"]
         base += 4
     for i in range(len(strokes.superquadrics)):
         verts, faces = superquadric_mesh(strokes.superquadrics, i)
