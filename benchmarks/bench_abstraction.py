@@ -1,6 +1,10 @@
 """Benchmark the compact abstraction: bytes, strokes and held-out quality at each ``--detail`` level and with the
 hull's outline (``--outline hull``), side by side, on every scene at hand.
 
+Columns: ``hull``: whether the hull's outline is drawn; ``drawn``: the share of the training silhouettes that
+the superquadrics and curves draw (``FitResult.outline_drawn``: under 0.7 the default falls back to the hull's
+outline).
+
 Bars (issue 38), default settings (``detail="medium"``, superquadric outline) on 2 CPU cores:
 - a teapot, a CAD part and a toy cow: binary stroke file ≤ 2,048 B, held-out line precision ≥ 0.90 and F ≥ 0.94
   at 256 px, at least 2 superquadrics drawn on the teapot and 4 on the cow (the procedural ``teapot`` and
@@ -35,7 +39,10 @@ from doodle.strokes.binary import encode
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 REAL = {"abc": (DATA / "abc-nef" / "00000006", 512), "rocker-arm": (DATA / "blender" / "rocker-arm", 400),
         "cheburashka": (DATA / "blender" / "cheburashka", 400), "lego": (DATA / "nerf_synthetic" / "lego", 512)}
-CONFIGS = {"low": dict(detail="low"), "medium": dict(), "high": dict(detail="high"), "hull": dict(outline="hull")}
+#: The levels as a user gets them (``--outline auto``: the hull's outline when the abstraction draws too little),
+#: the compact abstraction whatever it draws, and the hull's outline.
+CONFIGS = {"low": dict(detail="low"), "medium": dict(), "high": dict(detail="high"),
+           "compact": dict(outline="superquadrics"), "hull": dict(outline="hull")}
 
 
 def scenes(only: set[str] | None, tmp: Path):
@@ -75,7 +82,7 @@ def views_png(strokes, test, picks=(0, 3, 6)) -> "Image.Image":
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="comma-separated scenes")
-    ap.add_argument("--configs", default=",".join(CONFIGS), help="comma-separated: low, medium, high, hull")
+    ap.add_argument("--configs", default=",".join(CONFIGS), help="comma-separated: " + ", ".join(CONFIGS))
     ap.add_argument("--sheet", type=Path, help="write one PNG per scene, a row per configuration")
     ap.add_argument("--figure", type=Path, help="write one PNG with a row per scene: a held-out photo, then that "
                                                   "view drawn at each configuration (docs/levels.png)")
@@ -84,7 +91,8 @@ def main() -> None:
     args = ap.parse_args()
     only = set(args.only.split(",")) if args.only else None
     configs = args.configs.split(",")
-    print(f"{'scene':12s} {'config':7s} {'s':>6s} {'bytes':>6s} {'curves':>6s} {'sq':>5s} {'P':>6s} {'R':>6s} {'F':>6s}")
+    print(f"{'scene':12s} {'config':7s} {'s':>6s} {'bytes':>6s} {'curves':>6s} {'sq':>5s} {'hull':>4s} {'drawn':>5s} "
+          f"{'P':>6s} {'R':>6s} {'F':>6s}")
     figure = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, train, test, truth in scenes(only, Path(tmp)):
@@ -107,7 +115,9 @@ def main() -> None:
                 if "curves_3d" in m:
                     extra = f"  3D P {m['curves_3d']['precision']:.3f} R {m['curves_3d']['recall']:.3f} " \
                             f"F {m['curves_3d']['f_score']:.3f}"
+                drawn = "" if res.outline_drawn is None else f"{res.outline_drawn:.2f}"
                 print(f"{name:12s} {c:7s} {dt:6.1f} {len(encode(s)):6d} {len(s.curves):6d} {sq:>5s} "
+                      f"{'yes' if s.hull is not None else 'no':>4s} {drawn:>5s} "
                       f"{m['line_precision']:6.3f} {m['silhouette_recall']:6.3f} {m['f_score']:6.3f}{extra}",
                       flush=True)
                 if args.keep:

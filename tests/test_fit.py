@@ -313,6 +313,63 @@ class TestCheckpoints:
             fit(load_scene(chair_dir), FitConfig(**QUICK), checkpoint=tmp_path / "none.ckpt", resume=True, progress=False)
 
 
+class TestAutoOutline:
+    """``outline="auto"``: the compact abstraction, and a second fit with the hull's outline when it draws too
+    little of the silhouettes. The fits themselves are stood in for: this is the decision."""
+
+    def _calls(self, monkeypatch, drawn: float | None, interrupted: bool = False) -> list[str]:
+        from doodle.fit import pipeline
+
+        calls: list[str] = []
+
+        def one_fit(scene, cfg, checkpoint, resume, log, progress):
+            calls.append(cfg.outline)
+            log(f"fit {cfg.outline}")
+            strokes = StrokeSet(curves=CurveSet(np.zeros((1, 4, 3))))
+            return pipeline.FitResult(strokes, interrupted, 1.0, [f"fit {cfg.outline}"], outline_drawn=drawn)
+
+        monkeypatch.setattr(pipeline, "_fit", one_fit)
+        return calls
+
+    @pytest.mark.parametrize("drawn, want", [(0.95, ["superquadrics"]), (0.56, ["superquadrics", "hull"]),
+                                             (None, ["superquadrics"])])
+    def test_falls_back_to_the_hull_only_when_the_outline_is_not_drawn(self, chair_dir, monkeypatch, drawn, want):
+        calls = self._calls(monkeypatch, drawn)
+        logs: list[str] = []
+        res = fit(load_scene(chair_dir), FitConfig(**QUICK), progress=False, log=logs.append)
+        assert calls == want
+        if len(want) == 2:
+            assert res.seconds == 2.0 and any("56%" in m and "hull" in m for m in res.log)
+            assert res.outline_drawn == 0.56  # the figure that decided
+            assert res.log[0] == "fit superquadrics" and res.log[-1] == "fit hull"
+
+    def test_an_explicit_outline_or_count_is_kept(self, chair_dir, monkeypatch):
+        calls = self._calls(monkeypatch, 0.3)
+        scene = load_scene(chair_dir)
+        for cfg in (FitConfig(outline="superquadrics", **QUICK), FitConfig(outline="hull", **QUICK),
+                    FitConfig(superquadrics=3, **QUICK)):
+            fit(scene, cfg, progress=False, log=lambda m: None)
+        assert calls == ["superquadrics", "hull", "superquadrics"]
+
+    def test_an_interrupted_fit_is_not_repeated(self, chair_dir, monkeypatch):
+        calls = self._calls(monkeypatch, 0.3, interrupted=True)
+        assert fit(load_scene(chair_dir), FitConfig(**QUICK), progress=False, log=lambda m: None).interrupted
+        assert calls == ["superquadrics"]
+
+    def test_resume_goes_on_with_the_fit_that_was_interrupted(self, chair_dir, tmp_path, monkeypatch):
+        calls = self._calls(monkeypatch, 0.3)
+        ckpt = tmp_path / "s.ckpt"
+        torch.save({"format": "doodle-checkpoint", "config": {"outline": "hull"}}, ckpt)
+        monkeypatch.setattr("doodle.fit.pipeline.load_checkpoint", lambda path: torch.load(path, weights_only=True))
+        fit(load_scene(chair_dir), FitConfig(**QUICK), checkpoint=ckpt, resume=True, progress=False, log=lambda m: None)
+        assert calls == ["hull"]
+
+    def test_a_real_fit_reports_how_much_outline_it_draws(self, snowman_dir):
+        res = fit(load_scene(snowman_dir), FitConfig(outline="superquadrics", **QUICK), progress=False,
+                  log=lambda m: None)
+        assert res.outline_drawn is not None and 0.7 <= res.outline_drawn <= 1.0
+
+
 class TestEval:
     def test_ground_truth_sketch_scores_high(self, chair_dir):
         gt = load_ground_truth(chair_dir)["feature_edges"]

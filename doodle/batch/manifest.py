@@ -48,7 +48,7 @@ class Option:
 #: Every per-object option, in the order of the stages that use it (fit, export, animate, view, eval).
 OPTIONS: dict[str, Option] = {
     "detail": Option(("low", "medium", "high"), "medium", "abstraction level (doodle fit --detail)"),
-    "outline": Option(("superquadrics", "hull"), "superquadrics", "what draws the outline (doodle fit --outline)"),
+    "outline": Option(("auto", "superquadrics", "hull"), "auto", "what draws the outline (doodle fit --outline)"),
     "curves": Option("count", "auto", "curves: auto or a maximum (doodle fit --curves)"),
     "superquadrics": Option("count", "auto", "superquadrics: auto or a number (doodle fit --superquadrics)"),
     "seed": Option(int, 0, "random seed of the fit"),

@@ -15,9 +15,13 @@ AUTO_OUTLINE_CURVES = 128
 
 #: See :attr:`FitConfig.whole_outline`.
 WHOLE_OUTLINE = 0.8
+#: ``outline="auto"`` draws the hull's outline when the compact abstraction (superquadrics and the detail
+#: level's outline curves, past its budget if need be) draws less than this share of the training
+#: silhouettes: an object no few superquadrics abstract (see :attr:`FitConfig.outline`).
+HULL_FALLBACK = 0.7
 
 InitMethod = Literal["auto", "points", "hull", "bbox"]
-Outline = Literal["superquadrics", "hull"]
+Outline = Literal["auto", "superquadrics", "hull"]
 Detail = Literal["low", "medium", "high"]
 
 
@@ -67,8 +71,11 @@ class FitConfig:
     texture: bool = True
     """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
     printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.discovery.texture``)."""
-    outline: Outline = "superquadrics"
-    """What draws the view-dependent outline. ``"superquadrics"`` (the compact abstraction): superquadrics
+    outline: Outline = "auto"
+    """What draws the view-dependent outline. ``"auto"``: the compact abstraction, and the hull's outline
+    (a second fit) when superquadrics and outline curves together draw less than :data:`HULL_FALLBACK` of the
+    training silhouettes — an intricate object that a few superquadrics cannot abstract (Lego: 56 %, drawn as
+    a plate and ticks; the procedural and Blender scenes: 88–99 %). ``"superquadrics"`` (the compact abstraction): superquadrics
     fitted to the visual hull in 3D (:mod:`doodle.fit.volume.abstraction`), curves where they do not reach; they also
     hide what lies behind them. ``"hull"`` (the most faithful outline, 20–45 kB): the visual hull carved for
     the evidence (``evidence_voxels`` on its longest side) is stored in the stroke file and every view draws

@@ -21,7 +21,7 @@ from ..cameras import Camera
 from ..errors import DoodleError
 from ..scenes import Scene
 from ..strokes.model import OUTLINE_CELLS, CurveSet, DefaultCamera, SceneFrame, StrokeSet, SuperquadricSet, Voxels
-from .config import AUTO_OUTLINE_CURVES, FitConfig
+from .config import AUTO_OUTLINE_CURVES, HULL_FALLBACK, FitConfig
 from .init import farthest_points, initial_points
 from .objectives import make_objective
 from .optimize import StageState, run_stage
@@ -50,6 +50,10 @@ class FitResult:
     seconds: float = 0.0
     log: list[str] = field(default_factory=list)
     history: dict[str, list] = field(default_factory=dict)
+    outline_drawn: float | None = None
+    """Share of the training silhouettes' pixels that the superquadrics' outlines and the curves draw, the
+    hull's outline not counted (after discovery; ``None`` without it). After ``outline="auto"`` fell back to
+    the hull's outline: the compact abstraction's, which decided it."""
 
 
 def _device(name: str) -> torch.device:
@@ -84,6 +88,8 @@ def _validate(cfg: FitConfig, scene: Scene) -> None:
         raise DoodleError(f"--views-per-step must be at least 1, got {cfg.views_per_step}")
     if len(scene) < 2:
         raise DoodleError(f"{scene.source}: need at least 2 views to fit, found {len(scene)}")
+    if cfg.outline not in ("auto", "superquadrics", "hull"):
+        raise DoodleError(f"--outline must be auto, superquadrics or hull, got {cfg.outline!r}")
 
 
 def silhouette_pixels(sq: SuperquadricSet, frame: SceneFrame, cameras, grow_px: int = 3,
@@ -340,9 +346,38 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     With masks (and ``discover``), curves are found from multi-view edge evidence (:mod:`.discover`), the
     superquadrics explain the silhouettes the curves do not draw, and a short stage refines the curves
     with the superquadrics frozen. Without masks, curves start at SfM points and are fitted from there.
+
+    ``outline="auto"`` fits the compact abstraction first and, when its superquadrics and outline curves
+    together draw less than :data:`~doodle.fit.config.HULL_FALLBACK` of the training silhouettes (an object
+    they cannot abstract), fits again with the hull's outline and returns that.
     """
     cfg = config or FitConfig()
     _validate(cfg, scene)
+    if cfg.outline != "auto":
+        return _fit(scene, cfg, checkpoint, resume, log, progress)
+    from ..strokes.binary import encode
+
+    compact, whole = replace(cfg, outline="superquadrics"), replace(cfg, outline="hull")
+    ck = load_checkpoint(Path(checkpoint)) if (resume and checkpoint) else None
+    if ck is not None and ck["config"].get("outline") == "hull":  # interrupted in the fallback's fit
+        return _fit(scene, whole, checkpoint, resume, log, progress)
+    first = _fit(scene, compact, checkpoint, resume, log, progress)
+    falls_back = (not first.interrupted and first.outline_drawn is not None and cfg.superquadrics == "auto"
+                  and first.outline_drawn < HULL_FALLBACK)
+    if not falls_back:
+        return first
+    msg = (f"outline: superquadrics and curves draw {first.outline_drawn:.0%} of the silhouettes (under "
+           f"{HULL_FALLBACK:.0%}): fitting again with the hull's outline (--outline superquadrics keeps the "
+           f"{len(encode(first.strokes)):,} B abstraction)")
+    log(msg)
+    second = _fit(scene, whole, checkpoint, False, log, progress)
+    return replace(second, seconds=first.seconds + second.seconds, log=first.log + [msg] + second.log,
+                   outline_drawn=first.outline_drawn)
+
+
+def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, resume: bool,
+         log: Callable[[str], None], progress: bool) -> FitResult:
+    """One fit with a concrete outline (``"superquadrics"`` or ``"hull"``)."""
     device = _device(cfg.device)
     clock_start = time.perf_counter()
     messages: list[str] = []
@@ -505,6 +540,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
             })
         return save
 
+    outline_drawn: float | None = None  # set by finish_discovery
     judge_views = spread_indices(len(work), OUTLINE_VIEWS)  # where superquadric outlines are judged
     judge_of = np.full(len(work) + 1, -1)  # a view's place among them, -1 if none (and for source -1)
     judge_of[judge_views] = np.arange(len(judge_views))
@@ -528,10 +564,11 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     def finish_discovery(sq: SuperquadricSet) -> SuperquadricSet:
         """The final choice of curves, with the kept superquadrics' outlines counted as drawn."""
-        nonlocal start, normals, contour, curve_params
+        nonlocal start, normals, contour, curve_params, outline_drawn
 
         found = choose_beside(sq, polish=True, log=say)
         start, normals, contour = found.control_points, found.normals, found.contour
+        outline_drawn = found.outline_drawn
         curve_params = CurveParams(start if len(start) else np.zeros((0, 4, 3))).to(device)
         if len(sq) and not sq.drawn.all() and occluder is not None:
             say(f"superquadrics: {int((~sq.drawn).sum())} that only hide what is behind them dropped (the hull "
@@ -660,7 +697,7 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     strokes = _stroke_set(frame, scene, curves, final_sq, cfg, method, seconds, occluder, hull)
     if ckpt_path is not None and not interrupted:
         ckpt_path.unlink(missing_ok=True)
-    return FitResult(strokes, interrupted, seconds, messages)
+    return FitResult(strokes, interrupted, seconds, messages, outline_drawn=outline_drawn)
 
 
 def _confirm_hiding(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, work: Scene,

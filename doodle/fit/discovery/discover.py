@@ -57,6 +57,9 @@ class Discovery:
     """``(N,)`` each cubic's contour gate (see :class:`~doodle.strokes.model.CurveSet`; ``0``: a feature curve)."""
     source: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     """``(N,)`` the view a contour curve was traced in (``-1`` for feature curves): judged elsewhere only."""
+    outline_drawn: float = 0.0
+    """Share of the silhouettes' pixels drawn by the chosen strokes together with what was ``taken`` (the
+    superquadrics' outlines): how whole the sketch's outline is."""
 
 
 #: 3D fitting tolerance of the cubics, in voxels.
@@ -593,6 +596,8 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     n_outline = max(len(chosen) - max_curves, 0)  # chosen for the outline alone
     explained = np.unique(np.concatenate([cand.covers[k] for k in chosen])) if chosen else np.zeros(0, np.int64)
     outline = float(np.isin(cand.rim, explained).mean()) if len(cand.rim) else 0.0
+    drawn_all = explained if taken is None else np.concatenate([explained, taken])
+    outline_drawn = float(np.isin(cand.rim, drawn_all).mean()) if len(cand.rim) else 0.0
     chosen = np.asarray(chosen, int)
     is_contour = cand.gates[chosen] > 0 if len(cand.gates) else np.zeros(len(chosen), bool)
     controls = cand.controls[chosen[~is_contour]]
@@ -616,10 +621,11 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     coverage = len(explained) / max(cand.total, 1)
     log(f"discovery: {len(chosen)} of {len(cand.controls)} candidate cubics chosen ({len(rims)} contour"
         + (f"; {n_outline} for the outline alone" if n_outline else "") + "), explaining "
-        f"{coverage:.0%} of the line pixels and {outline:.0%} of the outlines" + (
+        f"{coverage:.0%} of the line pixels and {outline:.0%} of the outlines"
+        + (f" ({outline_drawn:.0%} with the superquadrics')" if taken is not None else "") + (
             f"; {bridged} gaps bridged, {len(controls)} cubics after joining" if polish else ""))
     return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds,
-                     contour, source)
+                     contour, source, outline_drawn)
 
 
 def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, threshold: float = 0.15,
