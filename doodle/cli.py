@@ -126,21 +126,25 @@ def convert(src: Path, dst: Path, fmt: str | None) -> None:
     click.echo(f"wrote {dst} ({n} bytes)")
 
 
-@cli.command(short_help="Write the 3D strokes as OBJ or PLY for 3D tools.")
+@cli.command(short_help="Write the 3D strokes as OBJ, PLY or glTF for 3D tools.")
 @click.argument("strokes", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="3D file to write: .obj (polylines, exact cubics as curv, meshes) or .ply (edges and faces).")
+              help="3D file to write: .obj (polylines, exact cubics as curv, meshes), .ply (edges and faces) "
+                   "or .glb (binary glTF, +Y up: line meshes with their cubics in extras, meshes).")
 @click.option("--samples", type=click.IntRange(2, 1024), default=32, show_default=True,
               help="Points per curve in the polylines.")
 @click.option("--curves/--no-curves", default=True, show_default=True, help="Write the curves.")
 @click.option("--superquadrics/--no-superquadrics", default=True, show_default=True,
               help="Write the superquadrics as closed meshes.")
-def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superquadrics: bool) -> None:
-    """Write the 3D strokes of STROKES for 3D tools: OBJ or PLY, in the stroke file's units and axes."""
+@click.option("--hull/--no-hull", default=True, show_default=True,
+              help="Write the hull (in files that draw their outline by one) as a closed mesh.")
+def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superquadrics: bool, hull: bool) -> None:
+    """Write the 3D strokes of STROKES for 3D tools: OBJ or PLY in the stroke file's units and axes, or glTF
+    binary (.glb) in its units turned to glTF's +Y up."""
     from dataclasses import replace
 
     from .atomic import write_bytes
-    from .exporters.scene3d import to_obj, to_ply
+    from .exporters.scene3d import to_glb, to_obj, to_ply
     from .strokes import CurveSet, SuperquadricSet, read_strokes
 
     s = read_strokes(strokes)
@@ -148,15 +152,22 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
         s = replace(s, curves=CurveSet(width_px=s.curves.width_px))
     if not superquadrics:
         s = replace(s, superquadrics=SuperquadricSet())
+    if not hull:
+        s = replace(s, hull=None)
     suffix = out_path.suffix.lower()
-    if suffix not in (".obj", ".ply"):
-        raise DoodleError(f"{out_path}: unknown 3D format {suffix or '(no suffix)'!r} (use .obj or .ply)")
-    data = to_obj(s, samples).encode() if suffix == ".obj" else to_ply(s, samples)
+    if not len(s.curves) and not len(s.superquadrics) and s.hull is None:
+        raise DoodleError(f"{strokes}: nothing to write (no curves, superquadrics or hull selected)")
+    writers = {".obj": lambda: to_obj(s, samples).encode(), ".ply": lambda: to_ply(s, samples),
+               ".glb": lambda: to_glb(s, samples)}
+    if suffix not in writers:
+        raise DoodleError(f"{out_path}: unknown 3D format {suffix or '(no suffix)'!r} (use .obj, .ply or .glb)")
+    data = writers[suffix]()
     try:
         write_bytes(out_path, data)
     except OSError as exc:
         raise DoodleError(f"{out_path}: cannot write ({exc.strerror or exc})") from None
-    click.echo(f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {len(data)} bytes")
+    click.echo(f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics"
+               f"{', the hull' if s.hull is not None else ''}, {len(data)} bytes")
 
 
 @cli.command(name="blender-addon", short_help="Write the Blender add-on that imports stroke files.")

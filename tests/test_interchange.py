@@ -1,9 +1,10 @@
-"""3D interchange: OBJ and PLY exports read by a real reader (trimesh), and the Blender importer run in the real
-Blender (headless). Tests that need trimesh or Blender skip cleanly without them."""
+"""3D interchange: OBJ, PLY and glTF exports read by real readers (trimesh, Open3D, Blender's importers), and the
+Blender add-on run in the real Blender (headless). Tests that need Open3D or Blender skip cleanly without them."""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 from pathlib import Path
@@ -14,8 +15,11 @@ from click.testing import CliRunner
 
 from doodle.cameras import orbit_cameras
 from doodle.cli import cli
-from doodle.exporters.scene3d import blender_addon_source, curve_polylines, superquadric_mesh, to_obj, to_ply
+from doodle.exporters.scene3d import (blender_addon_source, curve_polylines, hull_mesh, superquadric_mesh, to_glb,
+                                      to_obj, to_ply, y_up_rotation)
 from doodle.strokes import read_strokes, write_strokes
+from doodle.strokes.model import Voxels
+from doodle.strokes.superquadric import quaternion_to_matrix
 
 from helpers import random_strokes
 
@@ -129,15 +133,93 @@ def test_obj_and_ply_load_in_trimesh(strokes, tmp_path):
         assert np.allclose(path.vertices[entity.points], poly, atol=1e-5)
 
 
+def _ball_hull() -> Voxels:
+    """A ball of radius 0.5 on a turned 24³ grid of 0.05 voxels."""
+    ijk = np.stack(np.meshgrid(*[np.arange(24)] * 3, indexing="ij"), -1)
+    R = quaternion_to_matrix(np.array([0.9, 0.2, -0.3, 0.1]) / np.linalg.norm([0.9, 0.2, -0.3, 0.1]))
+    vox = Voxels(np.array([0.1, -0.2, 0.3]), 0.05, R, np.zeros((24, 24, 24), bool))
+    vox.occupied = np.linalg.norm(vox.centres(ijk.reshape(-1, 3)) - vox.centres(np.array([11.5] * 3)), axis=1
+                                  ).reshape(24, 24, 24) < 0.5
+    return vox
+
+
+def test_hull_mesh_is_the_closed_outward_boundary_of_the_voxels():
+    trimesh = pytest.importorskip("trimesh")
+    vox = _ball_hull()
+    v, f = hull_mesh(vox)
+    mesh = trimesh.Trimesh(v, f)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0  # outward normals
+    centre = vox.centres(np.array([11.5] * 3))
+    assert np.allclose(np.linalg.norm(v - centre, axis=1), 0.5, atol=0.05)  # on the boundary within a voxel
+    assert np.isclose(mesh.volume, 4 / 3 * np.pi * 0.5 ** 3, rtol=0.1)
+
+
+def test_exports_carry_the_hull_as_a_mesh(strokes, tmp_path):
+    """A file that draws its outline by a hull exports the hull's mesh too (object ``hull``)."""
+    import trimesh
+
+    strokes.hull = _ball_hull()
+    n_faces = len(hull_mesh(strokes.hull)[1])
+    assert "o hull" in to_obj(strokes)
+    (tmp_path / "s.glb").write_bytes(to_glb(strokes))
+    assert len(trimesh.load(tmp_path / "s.glb").geometry["hull"].faces) == n_faces
+    (tmp_path / "s.ply").write_bytes(to_ply(strokes))
+    ply = trimesh.load(tmp_path / "s.ply")
+    per_sq = len(superquadric_mesh(strokes.superquadrics, 0)[1])
+    assert len(ply.faces) == n_faces + per_sq * len(strokes.superquadrics)
+
+
+@pytest.mark.parametrize("up", [(0, 0, 1), (0, 1, 0), (0, -1, 0), (1, 0, 0), (0.3, -0.5, 0.8)])
+def test_y_up_rotation_is_a_rotation_taking_up_to_y(up):
+    u = np.array(up, float) / np.linalg.norm(up)
+    R = y_up_rotation(u)
+    assert np.allclose(R @ R.T, np.eye(3)) and np.isclose(np.linalg.det(R), 1.0)
+    assert np.allclose(R @ u, [0, 1, 0])
+
+
+def test_glb_loads_in_trimesh_with_one_polyline_per_curve(strokes, tmp_path):
+    """trimesh reads the glTF as a scene of one ``Path3D`` per curve — a single ``Line`` through its samples, in
+    order, turned to +Y up, the exact cubic in the extras — and one closed mesh per superquadric."""
+    import trimesh
+
+    strokes.frame.up[:] = (0.0, 0.0, 1.0)
+    (tmp_path / "s.glb").write_bytes(to_glb(strokes))
+    scene = trimesh.load(tmp_path / "s.glb")
+    R = y_up_rotation(strokes.frame.up)
+    polys = curve_polylines(strokes)
+    paths = {k: g for k, g in scene.geometry.items() if k.startswith("curve-")}
+    assert len(paths) == len(strokes.curves)
+    for n, (poly, ctrl) in enumerate(zip(polys, strokes.curves.control_points)):
+        path = paths[f"curve-{n:03d}"]
+        assert len(path.entities) == 1 and type(path.entities[0]).__name__ == "Line"
+        pts = path.entities[0].discrete(path.vertices)
+        pts = pts[np.r_[True, np.any(np.abs(np.diff(pts, axis=0)) > 0, axis=1)]]  # GL_LINES repeats inner points
+        assert np.allclose(pts, poly @ R.T, atol=1e-5)
+        assert np.allclose(pts @ R, poly, atol=1e-5) and np.allclose(pts[:, 1], poly[:, 2], atol=1e-5)
+        assert np.allclose(np.array(path.metadata["bezier"]), ctrl @ R.T, atol=1e-6)
+        assert np.allclose(scene.graph[f"curve-{n:03d}"][0], np.eye(4))
+    v, f = superquadric_mesh(strokes.superquadrics, 0)
+    for i in range(len(strokes.superquadrics)):
+        mesh = scene.geometry[f"superquadric-{i:02d}"]
+        assert len(mesh.faces) == len(f) and mesh.is_watertight and mesh.is_winding_consistent
+        assert np.allclose(mesh.vertices, superquadric_mesh(strokes.superquadrics, i)[0] @ R.T, atol=1e-5)
+
+
 def test_export3d_command(strokes, tmp_path):
     src = tmp_path / "s.doodleb"
     write_strokes(src, strokes)
     r = CliRunner().invoke(cli, ["export3d", str(src), "-o", str(tmp_path / "s.obj"), "--no-superquadrics"])
     assert r.exit_code == 0, r.output
     assert "o superquadric" not in (tmp_path / "s.obj").read_text()
+    r = CliRunner().invoke(cli, ["export3d", str(src), "-o", str(tmp_path / "s.glb")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "s.glb").read_bytes()[:4] == b"glTF"
     r = CliRunner().invoke(cli, ["export3d", str(src), "-o", str(tmp_path / "s.stl")])
     assert r.exit_code == 2 and "s.stl" in r.output and len(r.output.strip().splitlines()) == 1
     assert not (tmp_path / "s.stl").exists()
+    r = CliRunner().invoke(cli, ["export3d", str(src), "-o", str(tmp_path / "e.glb"), "--no-curves",
+                                 "--no-superquadrics"])
+    assert r.exit_code == 2 and "nothing to write" in r.output and not (tmp_path / "e.glb").exists()
 
 
 def test_blender_addon_command_writes_the_shipped_file(tmp_path):
@@ -249,3 +331,48 @@ def test_blenders_own_obj_importer_reads_a_polyline_per_curve_and_closed_meshes(
     for i in range(len(strokes.superquadrics)):
         o = out[f"superquadric-{i:02d}"]
         assert o["faces"] == len(f) and len(o["verts"]) - len(o["edges"]) + o["faces"] == 2
+
+
+GLB_CHECK = """
+import bpy, json, sys
+try:
+    import numpy
+except ImportError:  # Blender's glTF importer needs numpy in Blender's own Python
+    print("NO-NUMPY")
+    sys.exit(0)
+numpy.bool = bool  # Debian's Blender 3.4 glTF importer still uses numpy.bool, gone since numpy 1.24
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath=GLB)
+out = {o.name: {"verts": [list(o.matrix_world @ v.co) for v in o.data.vertices], "edges": len(o.data.edges),
+                "faces": len(o.data.polygons)} for o in bpy.context.scene.objects if o.type == "MESH"}
+print("RESULT " + json.dumps(out))
+"""
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.skipif(shutil.which("blender") is None, reason="Blender is not installed")
+def test_blenders_gltf_importer_puts_the_strokes_back_in_the_scenes_frame(strokes, tmp_path):
+    """Blender's glTF importer turns glTF's +Y up back into its +Z up: a z-up scene's curves come in where the
+    stroke file has them, an object per curve, and a closed mesh per superquadric."""
+    strokes.frame.up[:] = (0.0, 0.0, 1.0)
+    glb = tmp_path / "s.glb"
+    glb.write_bytes(to_glb(strokes))
+    script = tmp_path / "check.py"
+    script.write_text(GLB_CHECK.replace("GLB", repr(str(glb))))
+    # a system Blender finds its Python from the PATH: a virtualenv's or pyenv's first hides the system numpy
+    env = dict(os.environ, PATH=os.pathsep.join([str(Path(shutil.which("blender")).parent), os.environ["PATH"]]))
+    r = subprocess.run(["blender", "-b", "--factory-startup", "--python", str(script)], capture_output=True,
+                       text=True, timeout=240, env=env)
+    if "NO-NUMPY" in r.stdout:
+        pytest.skip("Blender's Python has no numpy, which its glTF importer needs")
+    line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")), None)
+    assert line is not None, r.stdout[-2000:] + r.stderr[-2000:]
+    out = json.loads(line[len("RESULT "):])
+    for n, poly in enumerate(curve_polylines(strokes)):
+        o = out[f"curve-{n:03d}"]
+        verts = np.array(o["verts"])
+        assert o["faces"] == 0 and o["edges"] == len(poly) - 1
+        assert np.allclose(np.unique(verts.round(5), axis=0), np.unique(poly.round(5), axis=0), atol=2e-5)
+    per_sq = len(superquadric_mesh(strokes.superquadrics, 0)[1])
+    for i in range(len(strokes.superquadrics)):
+        assert out[f"superquadric-{i:02d}"]["faces"] == per_sq
