@@ -322,7 +322,7 @@ class TestAutoOutline:
 
         calls: list[str] = []
 
-        def one_fit(scene, cfg, checkpoint, resume, log, progress):
+        def one_fit(scene, cfg, checkpoint, resume, log, progress, shared=None):
             calls.append(cfg.outline)
             log(f"fit {cfg.outline}")
             strokes = StrokeSet(curves=CurveSet(np.zeros((1, 4, 3))))
@@ -363,6 +363,26 @@ class TestAutoOutline:
         monkeypatch.setattr("doodle.fit.pipeline.load_checkpoint", lambda path: torch.load(path, weights_only=True))
         fit(load_scene(chair_dir), FitConfig(**QUICK), checkpoint=ckpt, resume=True, progress=False, log=lambda m: None)
         assert calls == ["hull"]
+
+    def test_the_fallback_traces_once_and_equals_a_fit_with_the_hulls_outline(self, snowman_dir, monkeypatch):
+        """The second fit offers the first fit's traces again (evidence, ridges, sight lines, contours) and makes
+        exactly what ``outline="hull"`` makes on its own: nothing the first fit did leaks into it."""
+        from doodle.fit import pipeline
+        from doodle.fit.discovery import discover
+        from doodle.strokes.binary import encode
+
+        scene = load_scene(snowman_dir)
+        alone = fit(scene, FitConfig(outline="hull", **QUICK), progress=False, log=lambda m: None)
+        traced = []
+        real = discover.trace_candidates
+        monkeypatch.setattr(discover, "trace_candidates", lambda *a, **k: traced.append(1) or real(*a, **k))
+        monkeypatch.setattr(pipeline, "HULL_FALLBACK", 1.01)  # every fit falls back
+        logs: list[str] = []
+        auto = fit(scene, FitConfig(**QUICK), progress=False, log=logs.append)
+        assert len(traced) == 1 and any("traced once, offered again" in m for m in logs)
+        for res in (auto, alone):
+            res.strokes.provenance.pop("seconds")
+        assert encode(auto.strokes) == encode(alone.strokes)
 
     def test_a_real_fit_reports_how_much_outline_it_draws(self, snowman_dir):
         res = fit(load_scene(snowman_dir), FitConfig(outline="superquadrics", **QUICK), progress=False,

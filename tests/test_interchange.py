@@ -244,6 +244,8 @@ for o in objs:
         a, b = o.data.splines[0].bezier_points
         out["curves"].append([list(a.co), list(a.handle_right), list(b.handle_left), list(b.co)])
     out["meshes"] += o.type == "MESH" and o.name.startswith("superquadric-")
+    if o.name == "hull":
+        out["hull"] = [len(o.data.vertices), len(o.data.polygons)]
 for cam in [o for o in objs if o.type == "CAMERA" and o.name.startswith("view-")]:
     pts = [world_to_camera_view(scene, cam, o.data.splines[0].bezier_points[0].co) for o in objs if o.type == "CURVE"]
     out["views"].append([[p.x * 200, (1 - p.y) * 100] for p in pts])
@@ -256,10 +258,11 @@ print("RESULT " + json.dumps(out))
 @pytest.mark.parametrize("suffix", [".doodle", ".doodleb"])
 def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_path, suffix):
     """In the real Blender, headless: one Bézier curve per stroke whose control points equal the file's to
-    1e-5, one mesh per superquadric, and orbit cameras that see the curves where doodle's own cameras draw
+    1e-5, one mesh per superquadric, the hull's mesh (with the doodle command), and orbit cameras that see the curves where doodle's own cameras draw
     them (within 0.05 px at 200 × 100). A binary file is converted by the ``doodle`` command."""
     if suffix == ".doodleb" and shutil.which("doodle") is None:
         pytest.skip("the doodle command is not on the PATH")
+    strokes.hull = _ball_hull()
     src = tmp_path / f"s{suffix}"
     write_strokes(src, strokes)
     strokes = read_strokes(src)  # the binary file's positions are quantised
@@ -274,6 +277,9 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     out = json.loads(line[len("RESULT "):])
     assert np.allclose(np.array(out["curves"]), strokes.curves.control_points, atol=1e-5)
     assert out["meshes"] == len(strokes.superquadrics)
+    if shutil.which("doodle") is not None:  # the hull is meshed by the doodle command, as export3d meshes it
+        v, f = hull_mesh(strokes.hull)
+        assert out["hull"] == [len(v), len(f)]
     cams = orbit_cameras(strokes.frame, 4, 200, 100)
     for cam, seen in zip(cams, out["views"]):
         uv, _ = cam.project(strokes.curves.control_points[:, 0])

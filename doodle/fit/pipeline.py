@@ -361,7 +361,8 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
     ck = load_checkpoint(Path(checkpoint)) if (resume and checkpoint) else None
     if ck is not None and ck["config"].get("outline") == "hull":  # interrupted in the fallback's fit
         return _fit(scene, whole, checkpoint, resume, log, progress)
-    first = _fit(scene, compact, checkpoint, resume, log, progress)
+    shared: dict = {}  # the discovery's traces, the same for both outlines: the fallback offers them again
+    first = _fit(scene, compact, checkpoint, resume, log, progress, shared)
     falls_back = (not first.interrupted and first.outline_drawn is not None and cfg.superquadrics == "auto"
                   and first.outline_drawn < HULL_FALLBACK)
     if not falls_back:
@@ -370,14 +371,17 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
            f"{HULL_FALLBACK:.0%}): fitting again with the hull's outline (--outline superquadrics keeps the "
            f"{len(encode(first.strokes)):,} B abstraction)")
     log(msg)
-    second = _fit(scene, whole, checkpoint, False, log, progress)
+    second = _fit(scene, whole, checkpoint, False, log, progress, shared)
+    second.strokes.provenance["seconds"] = round(first.seconds + second.seconds, 2)  # the file's cost: both fits
     return replace(second, seconds=first.seconds + second.seconds, log=first.log + [msg] + second.log,
                    outline_drawn=first.outline_drawn)
 
 
 def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, resume: bool,
-         log: Callable[[str], None], progress: bool) -> FitResult:
-    """One fit with a concrete outline (``"superquadrics"`` or ``"hull"``)."""
+         log: Callable[[str], None], progress: bool, shared: dict | None = None) -> FitResult:
+    """One fit with a concrete outline (``"superquadrics"`` or ``"hull"``). ``shared`` carries the discovery's
+    traces (:class:`~.discovery.discover.Traces`) from one fit of the scene with these evidence options to the
+    next."""
     device = _device(cfg.device)
     clock_start = time.perf_counter()
     messages: list[str] = []
@@ -425,9 +429,11 @@ def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, res
         else:
             from .discovery.discover import choose_curves, find_candidates
 
+            shared = {} if shared is None else shared
             candidates = find_candidates(working_scene(scene, cfg.evidence_size), cfg.evidence_voxels,
                                          contours=cfg.contours, texture=cfg.texture, hull_outline=cfg.outline_hull,
-                                         log=say)
+                                         log=say, traces=shared.get("traces"))
+            shared["traces"] = candidates.traces
             if occluder is not None and candidates.evidence.free is not None:
                 from .volume.hull import clear_seen
 

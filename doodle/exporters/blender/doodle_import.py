@@ -3,11 +3,13 @@
 An add-on (File > Import > doodle strokes) and a script. Curves come in exactly: a doodle curve is a cubic
 Bézier and so is a Blender Bézier spline (two points, the inner control points as their handles). Each
 superquadric comes in as a closed mesh, and each orbit view of the stroke file's default camera as a camera.
-Scene units and axes are the stroke file's (NeRF-synthetic and the procedural scenes: +z up, as Blender's).
+A file that draws its outline by a voxel hull brings the hull in as a closed mesh too (made by the ``doodle``
+command: ``doodle export3d``'s smoothed boundary). Scene units and axes are the stroke file's (NeRF-synthetic
+and the procedural scenes: +z up, as Blender's).
 
 Script use, headless::
 
-    blender -b --python doodle_import.py -- strokes.doodle [--views 8] [--bevel 0.004] [--save out.blend]
+    blender -b --python doodle_import.py -- strokes.doodle [--views 8] [--bevel 0.004] [--no-hull] [--save out.blend]
 
 Binary ``.doodleb`` files are converted by the ``doodle`` command when it is on the PATH (Blender's Python
 has no numpy to decode them), else convert first: ``doodle convert s.doodleb s.doodle``. Written out by
@@ -17,7 +19,7 @@ has no numpy to decode them), else convert first: ``doodle convert s.doodleb s.d
 bl_info = {
     "name": "doodle strokes",
     "author": "doodle",
-    "version": (1, 0, 0),
+    "version": (1, 1, 0),
     "blender": (3, 0, 0),
     "location": "File > Import > doodle strokes (.doodle)",
     "description": "3D Bézier curves and superquadrics of a doodle stroke file",
@@ -125,8 +127,36 @@ def read_document(path):
     return doc
 
 
-def import_strokes(path, views=8, bevel=None, collection_name=None):
-    """Create the stroke file's curves, superquadrics and orbit cameras in a new collection; returns it."""
+def read_ply_mesh(path):
+    """Vertices and faces of an ASCII PLY as written by ``doodle export3d`` (its ``edge`` elements skipped)."""
+    with open(path, encoding="ascii") as fh:
+        lines = fh.read().splitlines()
+    end = lines.index("end_header")
+    counts = {ln.split()[1]: int(ln.split()[2]) for ln in lines[:end] if ln.startswith("element ")}
+    rows = lines[end + 1:]
+    nv, nf = counts.get("vertex", 0), counts.get("face", 0)
+    verts = [tuple(float(x) for x in r.split()[:3]) for r in rows[:nv]]
+    faces = [tuple(int(x) for x in r.split()[1:]) for r in rows[nv:nv + nf]]
+    return verts, faces
+
+
+def hull_mesh(path):
+    """The hull's closed mesh, by ``doodle export3d`` (the ``doodle`` command on the PATH): vertices, faces."""
+    doodle = shutil.which("doodle")
+    if doodle is None:
+        raise ValueError(f"{path}: its hull needs the doodle command to be meshed (or import with --no-hull)")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "hull.ply")
+        done = subprocess.run([doodle, "export3d", path, "-o", out, "--no-curves", "--no-superquadrics"],
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            raise ValueError((done.stderr.strip() or f"{path}: doodle export3d failed").splitlines()[-1])
+        return read_ply_mesh(out)
+
+
+def import_strokes(path, views=8, bevel=None, collection_name=None, hull=True):
+    """Create the stroke file's curves, superquadrics, hull (``hull``: if it has one) and orbit cameras in a new
+    collection; returns it."""
     doc = read_document(path)
     scene = doc["scene"]
     radius = float(scene.get("radius", 1.0))
@@ -151,6 +181,12 @@ def import_strokes(path, views=8, bevel=None, collection_name=None):
         mesh.from_pydata(verts, [], faces)
         mesh.update()
         coll.objects.link(bpy.data.objects.new(f"superquadric-{i:02d}", mesh))
+    if hull and doc.get("hull"):
+        verts, faces = hull_mesh(path)
+        mesh = bpy.data.meshes.new("hull")
+        mesh.from_pydata(verts, [], faces)
+        mesh.update()
+        coll.objects.link(bpy.data.objects.new("hull", mesh))
     for k, (loc, target, fov) in enumerate(orbit(scene, views)):
         cam = bpy.data.cameras.new(f"view-{k:03d}")
         cam.angle = fov
@@ -170,10 +206,12 @@ class ImportDoodle(bpy.types.Operator):
     filename_ext = ".doodle"
     filepath: bpy.props.StringProperty(subtype="FILE_PATH")
     views: bpy.props.IntProperty(name="Orbit cameras", default=8, min=0, max=360)
+    hull: bpy.props.BoolProperty(name="Hull as a mesh", default=True,
+                                 description="Mesh the file's voxel hull, if it has one (needs the doodle command)")
 
     def execute(self, context):
         try:
-            import_strokes(self.filepath, self.views)
+            import_strokes(self.filepath, self.views, hull=self.hull)
         except (OSError, ValueError, KeyError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -205,9 +243,10 @@ def _main(argv):
     ap.add_argument("strokes")
     ap.add_argument("--views", type=int, default=8)
     ap.add_argument("--bevel", type=float, default=None)
+    ap.add_argument("--no-hull", dest="hull", action="store_false", help="leave out the hull's mesh")
     ap.add_argument("--save", help="write the scene to this .blend file")
     args = ap.parse_args(argv)
-    import_strokes(args.strokes, args.views, args.bevel)
+    import_strokes(args.strokes, args.views, args.bevel, hull=args.hull)
     if args.save:
         bpy.ops.wm.save_as_mainfile(filepath=args.save)
 

@@ -1,6 +1,7 @@
 """Stroke discovery: posed, masked images → candidate 3D cubics → the chosen curves.
 
-The pipeline, in the order it runs (``find_candidates`` then ``choose_curves`` in :mod:`.discover`):
+The pipeline, in the order it runs (in :mod:`.discover`: ``trace_candidates``, whose traces do not depend on the
+outline drawn, ``find_candidates`` that offers them, then ``choose_curves``):
 
 - :mod:`.evidence`    the visual hull on a grid fitted to the object, and the 3D edge vote of every view's lines
 - :mod:`.ridges`      ridge points of the vote, traced into polylines, split at corners

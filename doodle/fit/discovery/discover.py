@@ -32,7 +32,7 @@ from ...strokes.fitcurve import fit_cubics_many
 from .evidence import Evidence, _project, curve_samples, depth_maps, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
-from .rims import CONTOUR_GATES, find_rims
+from .rims import CONTOUR_GATES, Rims, find_rims
 from .sightlines import seen_through
 from .texture import on_smooth_faces
 
@@ -404,6 +404,27 @@ def snap_ends(controls: np.ndarray, radius: float) -> np.ndarray:
 
 
 @dataclass
+class Traces:
+    """What discovery traces before it offers anything (:func:`trace_candidates`): the same whichever outline
+    the fit draws, so a fit that runs twice (``--outline auto`` falling back to the hull) traces once."""
+
+    evidence: Evidence
+    """With the sight lines' ``free`` voxels and the depth maps that leave them out."""
+    controls: np.ndarray
+    """``(N, 4, 3)`` the feature cubics."""
+    smooth: np.ndarray | None
+    """``(N,)`` the feature cubics on smooth faces of the hull (``None``: not judged)."""
+    rims: Rims | None
+    """The views' contour curves (:func:`.rims.find_rims`), or ``None`` without contours."""
+    boundaries: list[np.ndarray]
+    """Each view's mask boundary pixels."""
+    ridge_points: int
+    polylines: int
+    seconds: dict[str, float]
+    texture: bool
+
+
+@dataclass
 class Candidates:
     """Candidate cubics and what each explains in the selection views (see :func:`find_candidates`)."""
 
@@ -435,6 +456,9 @@ class Candidates:
     (feature curves 29 % → 50 % on them), chair 0.907 → 0.904 with 94 % of its edges covered instead of 89 %
     (with the contour curves' traces offered, as here)."""
 
+    traces: Traces | None = None
+    """What the candidates were offered from (:func:`trace_candidates`), to offer again."""
+
     def pixel_ids(self, view_pixels: list[np.ndarray], reach: int = 1) -> np.ndarray:
         """Global ids of the line pixels within ``reach`` pixels (a (2 reach + 1)² square) of given pixels
         ``(P_v, 2)`` (x, y) per selection view."""
@@ -453,10 +477,48 @@ class Candidates:
         return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
 
 
+def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
+                     tolerance_voxels: float = TOLERANCE_VOXELS, contours: bool = True, texture: bool = True
+                     ) -> Traces:
+    """Evidence, ridges, polylines, feature cubics, sight lines and contour curves (see :func:`find_candidates`
+    for the arguments)."""
+    clock = time.perf_counter()
+    seconds: dict[str, float] = {}
+    ev = edge_evidence(scene, max_voxels)
+    seconds["evidence"] = time.perf_counter() - clock
+    t = time.perf_counter()
+    h = ev.grid.voxel
+    # hysteresis, as in Canny: ridges are traced down to half the threshold, and a polyline is kept when
+    # some of it reaches the threshold
+    ridges = ridge_points(ev.score, ev.grid, 0.5 * threshold)
+    size = h * float(np.linalg.norm(ev.grid.shape))
+    strong = cKDTree(ridges.points[ridges.strength >= threshold]) if (ridges.strength >= threshold).any() else None
+    polys = [p for p in link_ridges(ridges, h) if np.linalg.norm(np.diff(p, axis=0), axis=1).sum() >= min_length * size
+             and strong is not None and np.isfinite(strong.query(p, distance_upper_bound=0.5 * h)[0]).any()]
+    pieces = fit_cubics_many(polys, tolerance_voxels * h) if polys else []
+    controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
+    smooth = on_smooth_faces(controls, ev.grid, ev.occupied) if texture else None
+    seconds["curves"] = time.perf_counter() - t
+    t = time.perf_counter()
+    # where the views see feature curves inside the hull, they see through it: its depth maps leave that out
+    boundaries = [m ^ ndimage.binary_erosion(m) for m in scene.masks]
+    free = seen_through(controls, ev, outlines=boundaries)
+    ev = replace(ev, free=free, depth=depth_maps(ev.grid, ev.occupied & ~free, ev.cameras) if free.any() else ev.depth)
+    seconds["sight lines"] = time.perf_counter() - t
+    rims = None
+    if contours:
+        t = time.perf_counter()
+        f = scene.frame
+        rims = find_rims(ev.cameras, scene.masks, ev.grid, ev.occupied, f.center, f.radius, min_length * size,
+                         tolerance_voxels * h)
+        seconds["contours"] = time.perf_counter() - t
+    return Traces(ev, controls, smooth, rims, boundaries, len(ridges.points), len(polys), seconds, texture)
+
+
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
                     tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48, contours: bool = True,
                     outline_reach: int | None = None, texture: bool = True, hull_outline: bool = False,
-                    log: Callable[[str], None] = lambda m: None) -> Candidates:
+                    log: Callable[[str], None] = lambda m: None, traces: Traces | None = None) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
     Args:
@@ -476,39 +538,19 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
             curves are offered only as view-independent curves (where the outline runs along a crease), judged
             by the texture rule too, and the candidates on smooth faces, which the choice would take only for
             the outline they draw, are not taken at all (:attr:`Candidates.hull_outline`).
+        traces: what :func:`trace_candidates` made of this scene with these arguments, to offer again
+            (``None``: traced here).
     """
     if outline_reach is None:
         outline_reach = AUTOMATIC_OUTLINE_REACH if scene.masks_automatic else 1
-    clock = time.perf_counter()
-    seconds: dict[str, float] = {}
-    ev = edge_evidence(scene, max_voxels)
-    seconds["evidence"] = time.perf_counter() - clock
-    t = time.perf_counter()
-    h = ev.grid.voxel
-    # hysteresis, as in Canny: ridges are traced down to half the threshold, and a polyline is kept when
-    # some of it reaches the threshold
-    ridges = ridge_points(ev.score, ev.grid, 0.5 * threshold)
-    size = h * float(np.linalg.norm(ev.grid.shape))
-    strong = cKDTree(ridges.points[ridges.strength >= threshold]) if (ridges.strength >= threshold).any() else None
-    polys = [p for p in link_ridges(ridges, h) if np.linalg.norm(np.diff(p, axis=0), axis=1).sum() >= min_length * size
-             and strong is not None and np.isfinite(strong.query(p, distance_upper_bound=0.5 * h)[0]).any()]
-    pieces = fit_cubics_many(polys, tolerance_voxels * h) if polys else []
-    controls = np.concatenate(pieces) if pieces else np.zeros((0, 4, 3))
+    reused = traces is not None
+    if traces is None:
+        traces = trace_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, contours, texture)
+    ev, controls, smooth, rims = traces.evidence, traces.controls, traces.smooth, traces.rims
+    seconds = dict(traces.seconds)
     gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)
-    smooth = on_smooth_faces(controls, ev.grid, ev.occupied) if texture else None
-    seconds["curves"] = time.perf_counter() - t
-    t = time.perf_counter()
-    # where the views see feature curves inside the hull, they see through it: its depth maps leave that out
-    boundaries = [m ^ ndimage.binary_erosion(m) for m in scene.masks]
-    free = seen_through(controls, ev, outlines=boundaries)
-    ev = replace(ev, free=free, depth=depth_maps(ev.grid, ev.occupied & ~free, ev.cameras) if free.any() else ev.depth)
-    seconds["sight lines"] = time.perf_counter() - t
-    n_rims = 0
-    if contours:
-        t = time.perf_counter()
-        f = scene.frame
-        rims = find_rims(ev.cameras, scene.masks, ev.grid, ev.occupied, f.center, f.radius, min_length * size,
-                         tolerance_voxels * h)
+    n_rims = k = 0
+    if rims is not None:
         offered = (() if hull_outline else CONTOUR_GATES) + ((0.0,) if RIM_FEATURES else ())
         k = len(offered)  # each contour curve is offered once with every gate
         n_rims = len(rims.controls) * k
@@ -519,27 +561,29 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
         if smooth is not None:  # contour curves are the outline's own traces: judged only beside the hull's
             smooth = np.r_[smooth, np.tile(on_smooth_faces(rims.controls, ev.grid, ev.occupied) if hull_outline
                                            else np.zeros(len(rims.controls), bool), k)]
-        seconds["contours"] = time.perf_counter() - t
     t = time.perf_counter()
     views = list(spread_indices(len(ev.cameras), max_views))
     total = int(sum(ev.lines[v].sum() for v in views))
-    outlines = {v: boundaries[v] for v in views}
+    outlines = {v: traces.boundaries[v] for v in views}
     covers, off, _ = stroke_coverage(controls, ev, views, gates=gates, contour_normals=normals, source=source,
                                      outlines=outlines, outline_reach=outline_reach) \
         if len(controls) else ([], np.zeros(0), None)
     offsets = np.cumsum([0] + [ev.lines[v].size for v in views])
     rim = np.concatenate([np.flatnonzero(outlines[v]) + o for v, o in zip(views, offsets)])
     seconds["coverage"] = time.perf_counter() - t
-    log(f"discovery: {len(ridges.points)} ridge points → {len(polys)} polylines → {len(controls) - n_rims} candidate "
-        f"cubics" + (f" + {n_rims // k} contour cubics (each offered {k} way{'s' * (k > 1)})" if contours else "")
+    timing = ("traced once, offered again" if reused else
+              f"evidence {seconds['evidence']:.1f} s, curves {seconds['curves']:.1f} s, sight lines "
+              f"{seconds['sight lines']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if rims is not None else ""))
+    free = ev.free
+    log(f"discovery: {traces.ridge_points} ridge points → {traces.polylines} polylines → {len(controls) - n_rims} "
+        f"candidate cubics" + (f" + {n_rims // k} contour cubics (each offered {k} way{'s' * (k > 1)})" if k else "")
         + (f"; {int(smooth.sum())} of the {len(controls)} on smooth faces: "
            + ("not taken, the hull draws their outline" if hull_outline else "outline only") if smooth is not None else "")
-        + f" (evidence {seconds['evidence']:.1f} s, "
-        f"curves {seconds['curves']:.1f} s, sight lines {seconds['sight lines']:.1f} s"
-        + (f", contours {seconds['contours']:.1f} s" if contours else "") + ")"
-        + (f"; the views see through {free.sum() / max(ev.occupied.sum(), 1):.0%} of the hull" if free.any() else ""))
-    return Candidates(controls, covers, off, total, views, rim, ev, len(ridges.points), len(polys), seconds,
-                      gates, normals, source, smooth, hull_outline)
+        + f" ({timing})"
+        + (f"; the views see through {free.sum() / max(ev.occupied.sum(), 1):.0%} of the hull"
+           if free is not None and free.any() else ""))
+    return Candidates(controls, covers, off, total, views, rim, ev, traces.ridge_points, traces.polylines, seconds,
+                      gates, normals, source, smooth, hull_outline, traces)
 
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
