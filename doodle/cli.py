@@ -144,7 +144,7 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
     from dataclasses import replace
 
     from .atomic import write_bytes
-    from .exporters.scene3d import to_glb, to_obj, to_ply
+    from .exporters.scene3d import FORMATS_3D, encode_3d
     from .strokes import CurveSet, SuperquadricSet, read_strokes
 
     s = read_strokes(strokes)
@@ -157,11 +157,9 @@ def export3d(strokes: Path, out_path: Path, samples: int, curves: bool, superqua
     suffix = out_path.suffix.lower()
     if not len(s.curves) and not len(s.superquadrics) and s.hull is None:
         raise DoodleError(f"{strokes}: nothing to write (no curves, superquadrics or hull selected)")
-    writers = {".obj": lambda: to_obj(s, samples).encode(), ".ply": lambda: to_ply(s, samples),
-               ".glb": lambda: to_glb(s, samples)}
-    if suffix not in writers:
+    if suffix not in FORMATS_3D:
         raise DoodleError(f"{out_path}: unknown 3D format {suffix or '(no suffix)'!r} (use .obj, .ply or .glb)")
-    data = writers[suffix]()
+    data = encode_3d(s, suffix, samples)
     try:
         write_bytes(out_path, data)
     except OSError as exc:

@@ -38,6 +38,7 @@ scene = "broken"
 scene = "parcel"
 name = "box"
 views = 2
+model3d = "glb"
 """
 
 
@@ -149,6 +150,7 @@ def test_batch_makes_the_good_objects_and_records_the_broken_one(made):
         assert json.loads((folder / "metrics.json").read_text())["f_score"] > 0.5
         assert json.loads((folder / "record.json").read_text())["status"] == "ok"
     assert json.loads((out / "broken" / "record.json").read_text())["status"] == "error"
+    assert (out / "box" / "strokes.glb").read_bytes()[:4] == b"glTF" and not (out / "snowman" / "strokes.glb").exists()
     from PIL import Image
 
     assert Image.open(out / "sheet.png").size[0] >= 256 * 2

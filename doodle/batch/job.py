@@ -126,6 +126,11 @@ def _make(task: Task, folder: Path, log: list[str]) -> dict[str, Any]:
         write_viewer(strokes, folder / "sketch.html", ViewerOptions(size=o["size"], style=style, hidden=hidden, workers=1),
                      source=source)
         files.append("sketch.html")
+    if o["model3d"]:
+        from ..exporters.scene3d import encode_3d
+
+        (folder / f"strokes.{o['model3d']}").write_bytes(encode_3d(strokes, f".{o['model3d']}"))
+        files.append(f"strokes.{o['model3d']}")
     metrics = None
     if o["eval"] == "yes" or (o["eval"] == "auto" and _has_test_split(scene_dir)):
         from ..evaluate import evaluate

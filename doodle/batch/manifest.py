@@ -65,6 +65,7 @@ OPTIONS: dict[str, Option] = {
     "frames": Option(int, 36, "frames of the turntable"),
     "gif_size": Option(int, 384, "size of the turntable, px"),
     "html": Option(bool, False, "write sketch.html, the offline viewer (doodle view)"),
+    "model3d": Option(("", "obj", "ply", "glb"), "", "also write the 3D strokes as strokes.obj/.ply/.glb (doodle export3d)"),
     "eval": Option(("auto", "yes", "no"), "auto", "score on the scene's held-out views (auto: when it has a test split)"),
 }
 

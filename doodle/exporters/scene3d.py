@@ -181,6 +181,21 @@ def to_glb(strokes: StrokeSet, samples: int = CURVE_SAMPLES) -> bytes:
     return scene.export(file_type="glb")
 
 
+#: The 3D formats :func:`encode_3d` writes, by file suffix.
+FORMATS_3D = (".obj", ".ply", ".glb")
+
+
+def encode_3d(strokes: StrokeSet, suffix: str, samples: int = CURVE_SAMPLES) -> bytes:
+    """The stroke set as a 3D file's bytes, by its suffix (one of :data:`FORMATS_3D`)."""
+    if suffix == ".obj":
+        return to_obj(strokes, samples).encode()
+    if suffix == ".ply":
+        return to_ply(strokes, samples)
+    if suffix == ".glb":
+        return to_glb(strokes, samples)
+    raise ValueError(f"unknown 3D format {suffix or '(no suffix)'!r} (use {', '.join(FORMATS_3D)})")
+
+
 def blender_addon_source() -> str:
     """The Blender add-on that imports ``.doodle`` files (``doodle/exporters/blender/doodle_import.py``)."""
     from importlib.resources import files
