@@ -154,6 +154,23 @@ def test_hull_mesh_is_the_closed_outward_boundary_of_the_voxels():
     assert np.isclose(mesh.volume, 4 / 3 * np.pi * 0.5 ** 3, rtol=0.1)
 
 
+@pytest.mark.parametrize("thin", ["voxel", "plate"])
+def test_hull_mesh_keeps_what_smoothing_would_erase(thin):
+    """A single voxel or a plate one voxel thick (not the fit's own hulls, which are opened) still meshes closed."""
+    trimesh = pytest.importorskip("trimesh")
+    occ = np.zeros((12, 12, 12), bool)
+    if thin == "voxel":
+        occ[5, 6, 7] = True
+    else:
+        occ[2:10, 2:10, 6] = True
+    vox = Voxels(np.array([1.0, 2.0, 3.0]), 0.1, np.eye(3), occ)
+    v, f = hull_mesh(vox)
+    mesh = trimesh.Trimesh(v, f)
+    assert len(f) and mesh.is_watertight and mesh.volume > 0
+    lo, hi = vox.centres(np.argwhere(occ)).min(0), vox.centres(np.argwhere(occ)).max(0)
+    assert np.all(v >= lo - 0.05 - 1e-6) and np.all(v <= hi + 0.05 + 1e-6)
+
+
 def test_exports_carry_the_hull_as_a_mesh(strokes, tmp_path):
     """A file that draws its outline by a hull exports the hull's mesh too (object ``hull``)."""
     import trimesh

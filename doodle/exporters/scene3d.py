@@ -63,8 +63,13 @@ def hull_mesh(hull: Voxels, max_cells: int = 96) -> tuple[np.ndarray, np.ndarray
     from scipy.ndimage import gaussian_filter
     from skimage.measure import marching_cubes
 
-    occ = gaussian_filter(np.pad(hull.occupied, 2).astype(np.float32), 0.8)
+    binary = np.pad(hull.occupied, 2).astype(np.float32)
+    occ = gaussian_filter(binary, 0.8)
     step = max(1, int(np.ceil(max(hull.occupied.shape) / max_cells)))
+    if occ.max() <= 0.5 or hull.occupied.sum() < 64:
+        # nothing thicker than a voxel or two (the fit's hulls are opened by a voxel, so never theirs): smoothing
+        # would erase it, so the voxels' own faces, at full resolution
+        occ, step = binary, 1
     verts, faces, _, _ = marching_cubes(occ, 0.5, step_size=step, allow_degenerate=False)
     # marching cubes winds its faces towards increasing values (inwards here): flip them to face outwards
     return hull.centres(verts - 2.0), faces[:, ::-1].astype(np.int64)
