@@ -536,7 +536,7 @@ def _log(msg: str) -> None:
                    + "); every level draws the whole object.")
 @click.option("--outline", type=click.Choice(["auto", "superquadrics", "hull"]), default="auto", show_default=True,
               help="What draws the outline: superquadrics fitted to the object's volume (compact, ~2 kB), its "
-                   "voxel hull stored in the file (most faithful, 20-45 kB), or auto: superquadrics, and the hull "
+                   "voxel hull stored in the file (most faithful, 4-30 kB), or auto: superquadrics, and the hull "
                    "when they and the outline curves draw under 70% of the silhouettes (an intricate object).")
 @click.option("--occluder/--no-occluder", default=None,
               help="Store a coarse voxel hull that hides what lies behind the object's bulk [default: with "

@@ -115,6 +115,17 @@ class TestBinary:
     def test_plain_sets_stay_version_1(self):
         assert encode(random_strokes(n_curves=3, n_sq=2))[4] == 1
 
+    def test_voxel_volumes_travel_as_raw_bits_in_an_xz_trailer(self):
+        s = random_strokes(seed=4, extras=True)
+        data = encode(s)
+        assert data[4] == 4
+        back = decode(data)
+        assert np.array_equal(back.hull.occupied, s.hull.occupied)
+        assert np.array_equal(back.occluder.occupied, s.occluder.occupied)
+        for bad in (data[:-7], data[:-30] + bytes(30), data + b"\0"):
+            with pytest.raises(StrokeFileError):
+                decode(bad)
+
     def test_round_trip_within_1e_3_radius(self):
         s = random_strokes(seed=3, radius=2.0)
         _assert_close(s, decode(encode(s)), 1e-3 * 2.0)

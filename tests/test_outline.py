@@ -120,20 +120,36 @@ def test_options_leave_the_outline_out():
     assert not any(d.paths for d in draw_many(s, cams, DrawOptions(silhouettes=False)))
 
 
-def test_a_hull_survives_both_file_encodings_and_a_large_one_moves_the_binary_to_version_3():
+def _version_3(s: StrokeSet) -> bytes:
+    """``s`` as the binary version 3 wrote it: the volumes' JSON objects (base64 bits) in a zlib trailer."""
+    import struct
+    import zlib
+    from dataclasses import replace
+
+    from doodle.strokes.fileio import voxels_to_dict
+
+    plain = encode(replace(s, hull=None, occluder=None, provenance={}, extra={}))
+    assert plain[4] == 2 and plain[-2:] == b"\0\0"  # flags, and an empty trailer
+    meta = {"provenance": {}, "extra": {}, "hull": voxels_to_dict(s.hull)}
+    trailer = zlib.compress(json.dumps(meta).encode(), 9)
+    return plain[:4] + bytes([3]) + plain[5:-2] + struct.pack("<I", len(trailer)) + trailer
+
+
+def test_a_hull_survives_both_file_encodings_and_binary_version_3_is_read():
     rng = np.random.default_rng(0)
     frame = SceneFrame(np.array([0, 0, 1.0]), np.zeros(3), 1.0)
-    curves = CurveSet(rng.uniform(-0.5, 0.5, (3, 4, 3)))
+    curves = CurveSet(rng.uniform(-0.5, 0.5, (3, 4, 3)), normals=np.zeros((3, 2, 2, 3)))
     small = Voxels(np.array([-0.5, -0.5, -0.5]), 0.1, np.eye(3), rng.random((10, 10, 10)) > 0.5)
     noisy = Voxels(np.array([-0.5, -0.5, -0.5]), 0.01, np.eye(3), rng.random((100, 100, 100)) > 0.5)  # 125 kB packed
-    for hull, version in ((small, 1), (noisy, 3)):
+    for hull in (small, noisy):
         s = StrokeSet(frame, curves, hull=hull)
         back = loads(dumps(s))
         assert np.array_equal(back.hull.occupied, hull.occupied) and back.occluder is None
         data = encode(s)
-        assert data[4] == version
-        again = decode(data)
-        assert np.array_equal(again.hull.occupied, hull.occupied) and again.hull.voxel == pytest.approx(hull.voxel)
+        assert data[4] == 4  # volumes: raw bits in an xz trailer
+        for again in (decode(data), decode(_version_3(s))):
+            assert np.array_equal(again.hull.occupied, hull.occupied) and again.hull.voxel == pytest.approx(hull.voxel)
+            assert again.occluder is None and len(again.curves) == 3
     good = json.loads(dumps(StrokeSet(frame, curves, hull=small)))
     for change, message in ((dict(bits="@" + good["hull"]["bits"]), "hull.bits: not base64"),
                             (dict(shape=[10, 10, 9]), "hull.bits: expected 113 bytes for a 10×10×9 grid"),

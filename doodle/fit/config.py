@@ -77,7 +77,7 @@ class FitConfig:
     training silhouettes — an intricate object that a few superquadrics cannot abstract (Lego: 56 %, drawn as
     a plate and ticks; the procedural and Blender scenes: 88–99 %). ``"superquadrics"`` (the compact abstraction): superquadrics
     fitted to the visual hull in 3D (:mod:`doodle.fit.volume.abstraction`), curves where they do not reach; they also
-    hide what lies behind them. ``"hull"`` (the most faithful outline, 20–45 kB): the visual hull carved for
+    hide what lies behind them. ``"hull"`` (the most faithful outline, 4–30 kB): the visual hull carved for
     the evidence (``evidence_voxels`` on its longest side) is stored in the stroke file and every view draws
     the outline of its projection where the other strokes leave it undrawn (``doodle.exporters.outline``);
     strokes on smooth faces, chosen only for the outline they draw, are then not chosen. Masks only."""

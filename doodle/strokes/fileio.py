@@ -220,9 +220,10 @@ def _curve_normals(value: Any, n: int) -> np.ndarray:
     return out
 
 
-def _voxels(value: Any, name: str) -> Voxels:
+def _voxels(value: Any, name: str, packed: bytes | None = None) -> Voxels:
     """A voxel volume (``occluder``, ``hull``): a grid's ``origin``, ``voxel`` size, orthonormal ``axes`` (rows),
-    ``shape`` and its ``bits``: the occupancy in C order, packed 8 a byte (most significant first), zlib-compressed, base64."""
+    ``shape`` and its ``bits``: the occupancy in C order, packed 8 a byte (most significant first), zlib-compressed,
+    base64 — or, from a binary file, the ``packed`` occupancy itself (then ``bits`` is absent)."""
     d = _obj(value, name)
     origin = _vector(_required(d, "origin", f"{name}."), 3, f"{name}.origin")
     voxel = _number(_required(d, "voxel", f"{name}."), f"{name}.voxel", 0.0, lo_open=True)
@@ -236,10 +237,15 @@ def _voxels(value: Any, name: str) -> Voxels:
     if not isinstance(dims, list) or len(dims) != 3:
         raise _Invalid(f"{name}.shape: expected 3 integers")
     shape = tuple(_int(v, f"{name}.shape[{i}]", 1, MAX_VOXEL_SIDE) for i, v in enumerate(dims))
+    if packed is not None:
+        if len(packed) != voxel_bytes(shape):
+            raise _Invalid(f"{name}: expected {voxel_bytes(shape)} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
+        bits = np.unpackbits(np.frombuffer(packed, np.uint8))[: int(np.prod(shape))].astype(bool).reshape(shape)
+        return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
     text = _required(d, "bits", f"{name}.")
     if not isinstance(text, str) or len(text) > MAX_VOXEL_TEXT:
         raise _Invalid(f"{name}.bits: expected base64 text of at most {MAX_VOXEL_TEXT} characters")
-    size = (int(np.prod(shape)) + 7) // 8
+    size = voxel_bytes(shape)
     try:
         z = zlib.decompressobj()
         raw = z.decompress(base64.b64decode(text, validate=True), size + 1)
@@ -251,12 +257,36 @@ def _voxels(value: Any, name: str) -> Voxels:
     return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
 
 
-def voxels_to_dict(occ: Voxels) -> dict:
-    """The file's ``occluder`` or ``hull`` object (see :func:`_voxels`)."""
-    packed = np.packbits(np.asarray(occ.occupied, bool).ravel()).tobytes()
-    return {"origin": _floats(occ.origin), "voxel": float(f"{occ.voxel:.9g}"), "axes": _floats(occ.axes),
-            "shape": [int(v) for v in occ.occupied.shape],
-            "bits": base64.b64encode(zlib.compress(packed, 9)).decode("ascii")}
+def voxel_bytes(shape: tuple[int, ...]) -> int:
+    """Bytes of a ``shape`` grid's occupancy packed eight voxels a byte."""
+    return (int(np.prod(shape)) + 7) // 8
+
+
+def pack_voxels(occ: Voxels) -> bytes:
+    """The occupancy in C order, eight voxels a byte, most significant bit first."""
+    return np.packbits(np.asarray(occ.occupied, bool).ravel()).tobytes()
+
+
+def voxels_to_dict(occ: Voxels, bits: bool = True) -> dict:
+    """The file's ``occluder`` or ``hull`` object (see :func:`_voxels`); ``bits=False`` leaves the occupancy out
+    (the binary format carries it packed beside the object)."""
+    d = {"origin": _floats(occ.origin), "voxel": float(f"{occ.voxel:.9g}"), "axes": _floats(occ.axes),
+         "shape": [int(v) for v in occ.occupied.shape]}
+    if bits:
+        d["bits"] = base64.b64encode(zlib.compress(pack_voxels(occ), 9)).decode("ascii")
+    return d
+
+
+def voxels_from_dict(value: Any, name: str, packed: bytes) -> Voxels:
+    """A voxel volume from its object without ``bits`` and its ``packed`` occupancy (the binary format's).
+
+    Raises:
+        StrokeFileError: naming the invalid field.
+    """
+    try:
+        return _voxels(value, name, packed)
+    except _Invalid as exc:
+        raise StrokeFileError(str(exc)) from None
 
 
 def _outline_cells(value: Any, name: str) -> np.ndarray:
