@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import StrokeFileError
 from .fileio import (FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, MAX_VOXEL_SIDE, SHAPE_RANGE, VERSION, outline_cell_rows,
-                     pack_voxels, stroke_set_from_dict, voxel_bytes, voxels_from_dict, voxels_to_dict)
+                     pack_voxels, stroke_set_from_dict, voxel_bytes, voxel_shape, voxels_from_dict, voxels_to_dict)
 from .model import OUTLINE_CELLS, StrokeSet
 
 MAGIC = b"DDLB"
@@ -221,12 +221,7 @@ def _volume_trailer(data: bytes) -> tuple[dict, dict]:
     at, packed = 4 + jlen, {}
     for key in VOLUMES:
         if key in meta:
-            shape = meta[key].get("shape") if isinstance(meta[key], dict) else None
-            ok = (isinstance(shape, list) and len(shape) == 3
-                  and all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_VOXEL_SIDE for v in shape))
-            if not ok:
-                raise StrokeFileError(f"{key}.shape: expected 3 integers in [1, {MAX_VOXEL_SIDE}]")
-            size = voxel_bytes(tuple(shape))
+            size = voxel_bytes(voxel_shape(meta[key], key))
             packed[key], at = raw[at:at + size], at + size
     if at != len(raw):
         raise StrokeFileError(f"trailer: {len(raw) - at:+d} bytes beside its volumes")

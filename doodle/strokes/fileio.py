@@ -233,28 +233,43 @@ def _voxels(value: Any, name: str, packed: bytes | None = None) -> Voxels:
     axes = np.stack([_vector(r, 3, f"{name}.axes[{i}]") for i, r in enumerate(rows)])
     if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-3):
         raise _Invalid(f"{name}.axes: expected orthonormal rows")
+    shape = _voxel_shape(d, name)
+    size = voxel_bytes(shape)
+    where = name  # what the byte count is reported against
+    if packed is None:
+        where = f"{name}.bits"
+        text = _required(d, "bits", f"{name}.")
+        if not isinstance(text, str) or len(text) > MAX_VOXEL_TEXT:
+            raise _Invalid(f"{name}.bits: expected base64 text of at most {MAX_VOXEL_TEXT} characters")
+        try:
+            z = zlib.decompressobj()
+            # one byte past the grid is enough to tell that the data is too long
+            packed = z.decompress(base64.b64decode(text, validate=True), size + 1)
+        except (ValueError, zlib.error) as exc:  # binascii.Error is a ValueError
+            raise _Invalid(f"{name}.bits: not base64 of zlib data ({exc})") from None
+    if len(packed) != size:
+        raise _Invalid(f"{where}: expected {size} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
+    bits = np.unpackbits(np.frombuffer(packed, np.uint8))[: int(np.prod(shape))].astype(bool).reshape(shape)
+    return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
+
+
+def _voxel_shape(d: dict, name: str) -> tuple[int, int, int]:
     dims = _required(d, "shape", f"{name}.")
     if not isinstance(dims, list) or len(dims) != 3:
         raise _Invalid(f"{name}.shape: expected 3 integers")
-    shape = tuple(_int(v, f"{name}.shape[{i}]", 1, MAX_VOXEL_SIDE) for i, v in enumerate(dims))
-    if packed is not None:
-        if len(packed) != voxel_bytes(shape):
-            raise _Invalid(f"{name}: expected {voxel_bytes(shape)} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
-        bits = np.unpackbits(np.frombuffer(packed, np.uint8))[: int(np.prod(shape))].astype(bool).reshape(shape)
-        return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
-    text = _required(d, "bits", f"{name}.")
-    if not isinstance(text, str) or len(text) > MAX_VOXEL_TEXT:
-        raise _Invalid(f"{name}.bits: expected base64 text of at most {MAX_VOXEL_TEXT} characters")
-    size = voxel_bytes(shape)
+    return tuple(_int(v, f"{name}.shape[{i}]", 1, MAX_VOXEL_SIDE) for i, v in enumerate(dims))
+
+
+def voxel_shape(value: Any, name: str) -> tuple[int, int, int]:
+    """A voxel volume object's validated ``shape``.
+
+    Raises:
+        StrokeFileError: naming the invalid field.
+    """
     try:
-        z = zlib.decompressobj()
-        raw = z.decompress(base64.b64decode(text, validate=True), size + 1)
-    except (ValueError, zlib.error) as exc:  # binascii.Error is a ValueError
-        raise _Invalid(f"{name}.bits: not base64 of zlib data ({exc})") from None
-    if len(raw) != size or z.unconsumed_tail:
-        raise _Invalid(f"{name}.bits: expected {size} bytes for a {shape[0]}×{shape[1]}×{shape[2]} grid")
-    bits = np.unpackbits(np.frombuffer(raw, np.uint8))[: int(np.prod(shape))].astype(bool).reshape(shape)
-    return Voxels(origin, float(voxel), axes / np.linalg.norm(axes, axis=1, keepdims=True), bits)
+        return _voxel_shape(_obj(value, name), name)
+    except _Invalid as exc:
+        raise StrokeFileError(str(exc)) from None
 
 
 def voxel_bytes(shape: tuple[int, ...]) -> int:
