@@ -10,13 +10,12 @@ import json
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import click
 
 from . import __version__
 from .errors import DoodleError
-from .fit.config import DETAIL_LEVELS
 
 
 class UserError(click.ClickException):
@@ -516,87 +515,99 @@ def _log(msg: str) -> None:
     click.echo(msg, err=True)
 
 
-@cli.command(short_help="Fit strokes to posed images or plain photos of an object.")
+class GroupedOption(click.Option):
+    """An option listed under a heading in its command's help (``group``: one of the fit config's groups)."""
+
+    def __init__(self, *args: Any, group: str = "", **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.group = group
+
+
+class GroupedCommand(click.Command):
+    """A command whose help lists its options under headings: its own first, then each option group."""
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        sections: dict[str, list[tuple[str, str]]] = {}
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is not None:
+                sections.setdefault(getattr(param, "group", ""), []).append(record)
+        for group, rows in sections.items():
+            with formatter.section(f"{group.capitalize()} options" if group else "Options"):
+                formatter.write_dl(rows)
+
+
+def _config_option(f: Any) -> Callable[[Callable], Callable]:
+    """The click option of one :class:`~doodle.fit.config.FitConfig` field, from its declaration."""
+    from .fit.config import cli_flag
+
+    m, flag, default = f.metadata, cli_flag(f), f.default
+    common = dict(cls=GroupedOption, group=m["group"], help=m["help"])
+    kind, limits = m["kind"], m["limits"]
+    if kind is bool:
+        return click.option(f"{flag}/--no-{flag[2:]}", f.name, default=default, show_default=default is not None,
+                            **common)
+    if kind == "count":
+        return click.option(flag, f.name, default=str(default), show_default=True, metavar="auto|N",
+                            callback=_count_or_auto(int(limits[1])), **common)
+    if isinstance(kind, tuple):
+        return click.option(flag, f.name, type=click.Choice(kind), default=default, show_default=True, **common)
+    if kind == "path":
+        return click.option(flag, f.name, type=click.Path(file_okay=False, path_type=Path), default=default, **common)
+    types = {int: click.IntRange, float: click.FloatRange}
+    ptype = types[kind](*limits) if kind in types and limits else kind
+    return click.option(flag, f.name, type=ptype, default=default, show_default=default is not None, **common)
+
+
+def fit_options(command: Callable) -> Callable:
+    """Every option of :class:`~doodle.fit.config.FitConfig` that is not internal, as ``doodle fit`` flags."""
+    from .fit.config import config_fields
+
+    for f in reversed(config_fields()):
+        if not f.metadata["internal"]:
+            command = _config_option(f)(command)
+    return command
+
+
+@cli.command(cls=GroupedCommand, short_help="Fit strokes to posed images or plain photos of an object.")
 @click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
 @click.option("-o", "--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
-@click.option("--curves", default="auto", show_default=True, callback=_count_or_auto(4096),
-              help="Bézier curves: 'auto' (discovery chooses how many, up to the --detail level's) or a maximum.")
-@click.option("--superquadrics", default="auto", show_default=True, callback=_count_or_auto(64),
-              help="Number of superquadrics, or 'auto' (chosen from the data).")
-@click.option("--discover/--no-discover", default=True, show_default=True,
-              help="Find curves from multi-view edge evidence (needs masks); --no-discover: the distance-field fit.")
-@click.option("--contours/--no-contours", default=True, show_default=True,
-              help="The training views' outlines traced into 3D: view-independent curves where they run along a "
-                   "crease, and (beside superquadrics) contour curves drawn where a view grazes them.")
-@click.option("--detail", type=click.Choice(["low", "medium", "high"]), default="medium", show_default=True,
-              help="Abstraction level: how many curves + superquadrics at most, beside curves for the outline "
-                   "the superquadrics leave open ("
-                   + ", ".join(f"{k} {v.curves} + {v.superquadrics}" for k, v in DETAIL_LEVELS.items())
-                   + "); every level draws the whole object.")
-@click.option("--outline", type=click.Choice(["auto", "superquadrics", "hull"]), default="auto", show_default=True,
-              help="What draws the outline: superquadrics fitted to the object's volume (compact, ~2 kB), its "
-                   "voxel hull stored in the file (most faithful, 4-30 kB), or auto: superquadrics, and the hull "
-                   "when they and the outline curves draw under 70% of the silhouettes (an intricate object).")
-@click.option("--occluder/--no-occluder", default=None,
-              help="Store a coarse voxel hull that hides what lies behind the object's bulk [default: with "
-                   "--outline hull].")
-@click.option("--evidence-size", type=int, default=512, show_default=True,
-              help="Image size (larger side, px) for the 3D edge evidence.")
-@click.option("--evidence-voxels", type=int, default=192, show_default=True,
-              help="Evidence grid voxels along the object's longest side.")
-@click.option("--iterations", type=int, default=None,
-              help="Steps of the distance-field curve stage [default: 0 after discovery, else 1500].")
-@click.option("--sq-iterations", type=int, default=400, show_default=True, help="Steps of the superquadric stage.")
-@click.option("--size", type=int, default=256, show_default=True, help="Working resolution (larger image side, px).")
-@click.option("--views-per-step", type=int, default=8, show_default=True,
-              help="Training views per step of the distance-field stage.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed (fits are deterministic for one seed).")
-@click.option("--device", default="cpu", show_default=True, help="torch device: cpu, cuda, cuda:1 ...")
 @click.option("--split", default="train", show_default=True, help="Dataset split to fit (NeRF-synthetic).")
-@click.option("--init", "init", type=click.Choice(["auto", "points", "hull", "bbox"]), default="auto", show_default=True,
-              help="Initial stroke placement: SfM points, visual hull from masks, or random in the bounding box.")
-@click.option("--objective", default="edges", show_default=True, help="Objective (edges: weight-free default).")
-@click.option("--preview", "preview_dir", type=click.Path(file_okay=False, path_type=Path),
-              help="Write contact sheets of the current strokes here every --preview-every steps.")
-@click.option("--preview-every", type=int, default=250, show_default=True, help="Steps between --preview sheets.")
-@click.option("--checkpoint-every", type=int, default=200, show_default=True,
-              help="Steps between checkpoints (OUT.ckpt, for --resume).")
-@click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written while fitting.")
 @click.option("--masks", default="auto", show_default=True, metavar="auto|none|DIR",
               help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
                    "(auto); none; or a folder with NAME.png per view.")
-def fit(scene_dir: Path, out_path: Path, curves: Any, superquadrics: Any, discover: bool, contours: bool,
-        detail: str, outline: str, occluder: bool | None, evidence_size: int,
-        evidence_voxels: int, iterations: int | None, sq_iterations: int, size: int, views_per_step: int, seed: int,
-        device: str, split: str, init: str, objective: str, preview_dir: Path | None, preview_every: int,
-        checkpoint_every: int, resume: bool, masks: str) -> None:
+@click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written after every stage.")
+@fit_options
+def fit(scene_dir: Path, out_path: Path, split: str, masks: str, resume: bool, **options: Any) -> None:
     """Fit strokes to the posed images in SCENE (NeRF-synthetic, nerfstudio, COLMAP, or plain photos).
 
-    Ctrl-C stops early and still writes the best strokes so far; --resume continues from the checkpoint.
+    Ctrl-C stops early and still writes what the finished stages give (exit code 130); --resume goes on from
+    the checkpoint written after every stage.
     """
     from .fit import FitConfig
     from .fit import fit as fit_scene
     from .scenes import load_scene_at_size
+    from .scenes.automask import with_masks
     from .strokes import write_strokes
 
-    cfg = FitConfig(curves=curves, superquadrics=superquadrics, discover=discover, contours=contours,
-                    detail=detail, outline=outline, occluder=occluder, evidence_size=evidence_size,
-                    evidence_voxels=evidence_voxels, iterations=iterations, sq_iterations=sq_iterations,
-                    size=size, views_per_step=views_per_step, seed=seed, device=device, objective=objective,
-                    init=init, preview_dir=preview_dir, preview_every=preview_every, checkpoint_every=max(1, checkpoint_every))
-    from .scenes.automask import with_masks
-
-    scene = load_scene_at_size(scene_dir, split, max(size, evidence_size) if discover else size)
+    cfg = FitConfig(**options)
+    cfg.check()
+    scene = load_scene_at_size(scene_dir, split, cfg.load_size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
     scene = with_masks(scene, masks, Path(scene_dir) / "doodle-masks", log=_log)
     ckpt = out_path.with_name(out_path.name + ".ckpt")
     result = fit_scene(scene, cfg, checkpoint=ckpt, resume=resume, log=_log, progress=True)
-    n = write_strokes(out_path, result.strokes)
     s = result.strokes
+    if s is None:  # interrupted before anything could be drawn
+        click.echo(f"interrupted before anything was drawn: {out_path} not written (--resume goes on from {ckpt})",
+                   err=True)
+        sys.exit(130)
+    n = write_strokes(out_path, s)
     msg = f"wrote {out_path}: {len(s.curves)} curves, {len(s.superquadrics)} superquadrics, {n} bytes, {result.seconds:.0f} s"
     if result.interrupted:
-        msg += f" (interrupted; continue with --resume, checkpoint {ckpt})"
+        click.echo(msg + f" (interrupted; --resume goes on from {ckpt})")
+        sys.exit(130)
     click.echo(msg)
 
 

@@ -16,8 +16,8 @@ from scipy import ndimage
 
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many, svg_to_array, to_svg, union_mask
-from .fit.targets import line_map, working_scene
-from .scenes import Scene
+from .fit.gradient.targets import line_map
+from .scenes import Scene, working_scene
 from .strokes import StrokeSet, dumps
 from .strokes.binary import encode
 

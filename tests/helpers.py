@@ -37,3 +37,17 @@ def random_strokes(seed: int = 0, n_curves: int = 32, n_sq: int = 8, radius: flo
 
 def _proper(r: np.ndarray) -> np.ndarray:
     return r if np.linalg.det(r) > 0 else -r
+
+
+def render_scene(primitives, n: int = 12, size: int = 96, radius: float = 1.3):
+    """An in-memory scene of procedural ``primitives`` (the samples' training cameras, RGB over white, alpha
+    masks): for tests of one part of the fit without writing a sample folder."""
+    from doodle.samples.raycast import render_rgba
+    from doodle.samples.scenes import sample_cameras
+    from doodle.scenes.scene import Scene
+
+    cams = sample_cameras("train", n, size)
+    rgba = [render_rgba(list(primitives), c, 1) for c in cams]
+    alpha = [r[..., 3:].astype(float) / 255 for r in rgba]
+    images = [(r[..., :3] * a + 255 * (1 - a)).astype(np.uint8) for r, a in zip(rgba, alpha)]
+    return Scene(cams, images, SceneFrame(radius=radius), [r[..., 3] > 127 for r in rgba], source="rendered")

@@ -13,7 +13,8 @@ from doodle.cameras import orbit_cameras
 from doodle.exporters import DrawOptions, draw, union_mask
 from doodle.exporters.drawing import occlusion_probes, off_contour
 from doodle.fit.discovery.discover import stroke_coverage
-from doodle.fit.discovery.evidence import Evidence, carve_hull, depth_maps
+from doodle.fit.discovery.evidence import Evidence, depth_maps
+from doodle.fit.volume.carve import carve_hull
 from doodle.fit.discovery.rims import find_rims
 from doodle.scenes import Scene
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, dumps, loads

@@ -9,10 +9,11 @@ from scipy import ndimage
 from doodle.exporters import DrawOptions, draw
 from doodle.exporters.drawing import back_facing
 from doodle.fit.discovery.discover import choose_curves, complete_outline, find_candidates, select_strokes, snap_ends
-from doodle.fit.discovery.evidence import VoxelGrid, carve_hull, edge_evidence, fit_axes, object_lines, thin_parts
+from doodle.fit.discovery.evidence import edge_evidence, object_lines, thin_parts
+from doodle.fit.volume.carve import VoxelGrid, carve_hull, fit_axes
 from doodle.fit.discovery.facing import curve_normals
 from doodle.fit.discovery.ridges import RidgePoints, _bridge, link_ridges, split_at_corners
-from doodle.fit.targets import working_scene
+from doodle.scenes import working_scene
 from doodle.samples import load_ground_truth
 from doodle.scenes import load_scene
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet
@@ -119,9 +120,9 @@ class TestEvidence:
         assert tolerant.sum() < 1.5 * clean.sum()  # and it does not swell where the masks agree
         assert np.array_equal(carve_hull(scene, 48, disagree=0.0)[1], clean)
         # by default only automatic masks get the tolerance (3 %: none of 12 views, so raised here)
-        from doodle.fit.discovery import evidence
+        from doodle.fit.volume import carve
 
-        monkeypatch.setattr(evidence, "HULL_DISAGREE", 0.1)
+        monkeypatch.setattr(carve, "HULL_DISAGREE", 0.1)
         assert np.array_equal(carve_hull(tight, 48)[1], strict)
         assert np.array_equal(carve_hull(replace(tight, masks_automatic=True), 48)[1], tolerant)
 

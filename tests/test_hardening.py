@@ -262,7 +262,7 @@ def test_fit_goes_on_when_checkpoints_cannot_be_written(chair_dir, tmp_path, mon
     def disk_full(*args, **kwargs):  # what torch raises on a full disk
         raise RuntimeError("[enforce fail at inline_container.cc:672] . unexpected pos 128 vs 0")
 
-    monkeypatch.setattr("doodle.fit.pipeline.torch.save", disk_full)
+    monkeypatch.setattr("doodle.fit.state.torch.save", disk_full)
     out = tmp_path / "s.doodle"
     r = _invoke(["fit", str(chair_dir), "-o", str(out), "--size", "64", "--evidence-size", "64",
                  "--superquadrics", "0", "--checkpoint-every", "5"])

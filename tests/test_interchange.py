@@ -40,9 +40,10 @@ def test_superquadric_mesh_is_closed_and_on_the_surface(shape):
                          np.linalg.norm([0.9, 0.1, -0.3, 0.2]), np.array([[0.1, -0.2, 0.3]]))
     v, f = superquadric_mesh(sq, 0)
     directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    assert len({tuple(e) for e in directed}) == len(directed)  # no directed edge twice: consistent winding
-    undirected = {tuple(sorted(e)) for e in directed}
-    assert all((b, a) in {tuple(e) for e in directed} for a, b in directed)  # every edge has its twin
+    edges = {tuple(e) for e in directed.tolist()}
+    assert len(edges) == len(directed)  # no directed edge twice: consistent winding
+    undirected = {tuple(sorted(e)) for e in edges}
+    assert all((b, a) in edges for a, b in edges)  # every edge has its twin
     assert len(v) - len(undirected) + len(f) == 2
     fx = inside_outside(world_to_local(v, sq.rotation, sq.translation), sq.scale, sq.shape)[0]
     assert np.allclose(fx, 1.0, atol=1e-6)

@@ -68,7 +68,7 @@ def test_a_rounded_guess_across_sharp_edges_draws_nothing():
     masks = [union_mask(cube, c) for c in CAMS]
     # the line maps: the cube's boundary and its visible edges (as the curves draw them)
     from doodle.exporters.drawing import DrawOptions, draw_many
-    from doodle.fit.volume.outlines import raster_layer
+    from doodle.exporters.raster import raster_layer
 
     drawings = draw_many(StrokeSet(FRAME, edges, SuperquadricSet()), CAMS, DrawOptions(hidden="hide"))
     ink = raster_layer(drawings, CAMS, "curves", lambda pid: 0)
@@ -119,9 +119,11 @@ def test_an_outline_that_strays_from_the_lines_is_not_drawn():
 
 
 def test_drawn_outlines_are_judged_again_once_the_superquadrics_are_settled():
-    """The pipeline's last look (after occluders that hid parts of an outline are dropped): an outline that
+    """The curves stage's last look (after occluders that hid parts of an outline are dropped): an outline that
     now strays is taken back and the curves are chosen again; a faithful one is left alone."""
-    from doodle.fit.pipeline import _recheck_outlines
+    from types import SimpleNamespace
+
+    from doodle.fit.stages.curves import recheck_outlines
 
     slab = _one([0.8, 0.8, 0.2], [0.05, 0.05])
     masks, lines = _views(slab)
@@ -135,10 +137,11 @@ def test_drawn_outlines_are_judged_again_once_the_superquadrics_are_settled():
     blob = _one([0.8, 0.8, 0.2], [1.0, 1.0])
     blob.drawn[:] = True
     messages = []
-    out = _recheck_outlines(blob, FRAME, judge, finish, messages.append)
+    state = SimpleNamespace(frame=FRAME, judge=judge, occluder=None, say=messages.append)
+    out = recheck_outlines(blob, state, finish)
     assert out.drawn.tolist() == [False] and [d.tolist() for d in chosen_again] == [[False]], messages
     slab.drawn[:] = True
-    assert _recheck_outlines(slab, FRAME, judge, finish, messages.append) is slab and len(chosen_again) == 1
+    assert recheck_outlines(slab, state, finish) is slab and len(chosen_again) == 1
 
 
 def test_an_outline_is_drawn_only_where_the_views_confirm_it():
@@ -202,7 +205,7 @@ def _ring(radius: float) -> CurveSet:
 
 def _inked_lines(strokes: StrokeSet) -> list[np.ndarray]:
     """What the strokes draw in every camera, as line maps."""
-    from doodle.fit.volume.outlines import ink_paths
+    from doodle.exporters.raster import ink_paths
 
     return [ink_paths(np.zeros((c.height, c.width), bool), draw(strokes, c, DrawOptions(hidden="hide")).layer("curves"))
             for c in CAMS]

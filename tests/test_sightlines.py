@@ -8,7 +8,8 @@ from scipy import ndimage
 
 from doodle.cameras import Camera
 from doodle.cameras.camera import look_at
-from doodle.fit.discovery.evidence import Evidence, VoxelGrid, depth_maps
+from doodle.fit.discovery.evidence import Evidence, depth_maps
+from doodle.fit.volume.carve import VoxelGrid
 from doodle.fit.discovery.sightlines import seen_through
 from doodle.fit.volume.hull import clear_seen
 from doodle.strokes.bezier import bezier_points

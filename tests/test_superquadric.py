@@ -98,7 +98,7 @@ class TestFramesAndUnion:
 
 class TestRayOccupancy:
     def test_same_value_and_gradient_as_differentiating_every_sample(self):
-        from doodle.fit.objectives.edges import ray_occupancy, union_occupancy
+        from doodle.fit.gradient.objectives.edges import ray_occupancy, union_occupancy
 
         gen = torch.Generator().manual_seed(3)
         params = [torch.rand(3, 3, generator=gen) * 0.5 + 0.2, torch.rand(3, 2, generator=gen) * 0.8 + 0.2,

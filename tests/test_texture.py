@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from doodle.fit.discovery.discover import choose_curves, find_candidates, select_strokes
-from doodle.fit.discovery.evidence import VoxelGrid
+from doodle.fit.volume.carve import VoxelGrid
 from doodle.fit.discovery.texture import hull_coherence, on_smooth_faces, smooth_face_share
 from doodle.samples import load_ground_truth, render_rgba, sample_cameras, write_sample
 from doodle.samples.primitives import PRINT_INK, Box

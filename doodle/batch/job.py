@@ -90,6 +90,7 @@ def _make(task: Task, folder: Path, log: list[str]) -> dict[str, Any]:
     from ..exporters import DrawOptions, ExportOptions, export_views
     from ..exporters.viewer import ViewerOptions, write_viewer
     from ..fit import FitConfig, fit
+    from ..fit.config import config_fields, manifest_key
     from ..scenes import load_scene, load_scene_at_size
     from ..scenes.automask import with_masks
     from ..strokes import write_strokes
@@ -101,12 +102,14 @@ def _make(task: Task, folder: Path, log: list[str]) -> dict[str, Any]:
         raise DoodleError(f"{scene_dir}: no such scene folder")
     style = load_style(o["style"])
     hidden = o["hidden"] or style.hidden_mode or "hide"
-    cfg = FitConfig(curves=o["curves"], superquadrics=o["superquadrics"], detail=o["detail"], outline=o["outline"],
-                    seed=o["seed"], size=o["fit_size"])
+    cfg = FitConfig(**{f.name: o[manifest_key(f)] for f in config_fields() if manifest_key(f) in o})
+    cfg.check()
     say = log.append
-    scene = load_scene_at_size(scene_dir, o["split"], max(cfg.size, cfg.evidence_size))
+    scene = load_scene_at_size(scene_dir, o["split"], cfg.load_size)
     scene = with_masks(scene, o["masks"], scene_dir / "doodle-masks", log=say)
-    result = fit(scene, cfg, log=say, progress=False)
+    result = fit(scene, cfg, log=say, progress=False, hold_interrupt=False)
+    if result.interrupted:  # Ctrl-C reached the worker: the object is not made (a rerun makes it)
+        raise KeyboardInterrupt
     # the stroke file is the same bytes whenever the object is made: the fit's timing goes in the record
     strokes = replace(result.strokes, provenance={k: v for k, v in result.strokes.provenance.items() if k != "seconds"})
     strokes_file = folder / ("strokes.doodleb" if o["binary"] else "strokes.doodle")

@@ -37,40 +37,43 @@ else:  # pragma: no cover
 
 @dataclass(frozen=True)
 class Option:
-    """One per-object option: its kind (``int``, ``bool``, ``str``, ``"count"``: a number or ``auto``, or a
-    tuple of the allowed words), its default and what it does."""
+    """One per-object option: its kind (``int``, ``float``, ``bool``, ``str``, ``"count"``: a number or ``auto``,
+    or a tuple of the allowed words), its default, what it does, and the bounds of a number."""
 
     kind: Any
     default: Any
     help: str
+    limits: tuple[float, float] | None = None
+
+
+def _fit_options() -> dict[str, Option]:
+    """The fit's options, from :class:`~doodle.fit.config.FitConfig`'s declarations (``fit_size`` for its
+    ``size``): a manifest takes every option ``doodle fit`` takes but the run's own (device, previews)."""
+    from ..fit.config import config_fields, manifest_key
+
+    return {manifest_key(f): Option(f.metadata["kind"], f.default, f.metadata["help"], f.metadata["limits"])
+            for f in config_fields() if f.metadata["manifest"]}
 
 
 #: Every per-object option, in the order of the stages that use it (fit, export, animate, view, eval).
 OPTIONS: dict[str, Option] = {
-    "detail": Option(("low", "medium", "high"), "medium", "abstraction level (doodle fit --detail)"),
-    "outline": Option(("auto", "superquadrics", "hull"), "auto", "what draws the outline (doodle fit --outline)"),
-    "curves": Option("count", "auto", "curves: auto or a maximum (doodle fit --curves)"),
-    "superquadrics": Option("count", "auto", "superquadrics: auto or a number (doodle fit --superquadrics)"),
-    "seed": Option(int, 0, "random seed of the fit"),
-    "fit_size": Option(int, 256, "working resolution of the fit, px (doodle fit --size)"),
+    **_fit_options(),
     "split": Option(str, "train", "dataset split to fit"),
     "masks": Option(str, "auto", "auto, none or a folder of masks (relative to the manifest)"),
     "binary": Option(bool, True, "write strokes.doodleb (binary) rather than strokes.doodle (JSON)"),
-    "views": Option(int, 36, "orbit views exported as SVG (0: none)"),
-    "size": Option(int, 512, "size of the exported views and of the viewer's, px"),
+    "views": Option(int, 36, "orbit views exported as SVG (0: none)", (0, 1000)),
+    "size": Option(int, 512, "size of the exported views and of the viewer's, px", (16, 4096)),
     "style": Option(str, "ink", "brush style: a built-in name or a style file (relative to the manifest)"),
     "hidden": Option(("", "hide", "dash", "show"), "", "hidden lines (\"\": the style's, else hide)"),
     "png": Option(bool, False, "also write a PNG of every view"),
     "gif": Option(bool, True, "write turntable.gif"),
-    "frames": Option(int, 36, "frames of the turntable"),
-    "gif_size": Option(int, 384, "size of the turntable, px"),
+    "frames": Option(int, 36, "frames of the turntable", (1, 1000)),
+    "gif_size": Option(int, 384, "size of the turntable, px", (16, 4096)),
     "html": Option(bool, False, "write sketch.html, the offline viewer (doodle view)"),
     "model3d": Option(("", "obj", "ply", "glb"), "", "also write the 3D strokes as strokes.obj/.ply/.glb (doodle export3d)"),
     "eval": Option(("auto", "yes", "no"), "auto", "score on the scene's held-out views (auto: when it has a test split)"),
 }
 
-_RANGES = {"seed": (0, 2 ** 31 - 1), "fit_size": (32, 4096), "views": (0, 1000), "size": (16, 4096),
-           "frames": (1, 1000), "gif_size": (16, 4096)}
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 
 
@@ -93,21 +96,29 @@ def _value(key: str, value: Any, where: str) -> Any:
     """``value`` checked against option ``key`` (text from a CSV cell is converted first)."""
     if key not in OPTIONS:
         raise DoodleError(f"{where}: unknown option {key!r} (options: {', '.join(OPTIONS)})")
-    kind = OPTIONS[key].kind
-    if isinstance(value, str) and kind in (int, bool, "count"):
+    opt = OPTIONS[key]
+    kind = opt.kind
+    if isinstance(value, str) and kind in (int, float, bool, "count"):
         text = value.strip().lower()
         if kind is bool and text in ("true", "yes", "1", "false", "no", "0"):
             value = text in ("true", "yes", "1")
         elif kind in (int, "count") and re.fullmatch(r"[+-]?\d+", text):
             value = int(text)
+        elif kind is float and re.fullmatch(r"[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?", text):
+            value = float(text)
         elif kind == "count" and text == "auto":
             value = "auto"
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
     if kind is bool:
         ok = isinstance(value, bool)
         expected = "true or false"
     elif kind is int:
         ok = isinstance(value, int) and not isinstance(value, bool)
         expected = "a whole number"
+    elif kind is float:
+        ok = isinstance(value, float) and value == value
+        expected = "a number"
     elif kind == "count":
         ok = value == "auto" or (isinstance(value, int) and not isinstance(value, bool) and value >= 0)
         expected = "auto or a whole number ≥ 0"
@@ -119,9 +130,9 @@ def _value(key: str, value: Any, where: str) -> Any:
         expected = " or ".join(repr(k) for k in kind)
     if not ok:
         raise DoodleError(f"{where}: {key} must be {expected}, got {str(value)[:40]!r}")
-    if key in _RANGES and not _RANGES[key][0] <= value <= _RANGES[key][1]:
-        lo, hi = _RANGES[key]
-        raise DoodleError(f"{where}: {key} must be between {lo} and {hi}, got {value}")
+    if opt.limits is not None and value != "auto" and not opt.limits[0] <= value <= opt.limits[1]:
+        lo, hi = opt.limits
+        raise DoodleError(f"{where}: {key} must be between {lo:g} and {hi:g}, got {value}")
     return value
 
 

@@ -1,13 +1,17 @@
-"""PNG and PDF through cairosvg (same geometry as the SVG), and contact sheets through Pillow."""
+"""PNG and PDF through cairosvg (same geometry as the SVG), contact sheets through Pillow, and drawings
+rasterised to 1-px masks (what the fit judges its outlines and curves by)."""
 
 from __future__ import annotations
 
 import io
 import math
+from typing import Callable
 
 import cairosvg
 import numpy as np
 from PIL import Image
+
+from ..cameras import Camera
 
 
 def svg_to_png(svg: str, background: str | None = "white", scale: float = 1.0,
@@ -48,3 +52,24 @@ def contact_sheet(images: list[Image.Image], columns: int | None = None, cell: i
         if labels:
             draw.text(((k % columns) * cell + 4, (k // columns) * (cell + label_h) + cell), labels[k], fill=(90, 90, 90))
     return sheet
+
+
+def ink_paths(img: np.ndarray, ops) -> np.ndarray:
+    """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
+    H, W = img.shape
+    for op in ops:
+        p = np.floor(op.points()).astype(int)
+        ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < W) & (p[:, 1] < H)
+        img[p[ok, 1], p[ok, 0]] = True
+    return img
+
+
+def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
+    """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)``."""
+    out = []
+    for cam, d in zip(cameras, drawings):
+        per: dict[int, np.ndarray] = {}
+        for op in d.layer(layer):
+            ink_paths(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
+        out.append(per)
+    return out

@@ -1,10 +1,24 @@
-"""Fitting configuration: one dataclass, mapped 1:1 onto ``doodle fit`` options."""
+"""The fit's options: one dataclass, :class:`FitConfig`, whose fields are declared in groups with their help
+text, range and command-line spelling. ``doodle fit``'s options, the batch manifest's fit keys and the checks
+of :meth:`FitConfig.check` are all derived from these declarations (:func:`config_fields`), so an option is
+added in one place.
+
+Groups, in the order ``doodle fit --help`` shows them:
+
+- ``discovery``    how curves are found from the images' multi-view edge evidence
+- ``abstraction``  how much the sketch holds: the detail level, curves and superquadrics
+- ``outline``      what draws the view-dependent outline
+- ``optimiser``    the gradient stages (``--no-discover``, ``--outline hull``'s superquadrics, fixed counts)
+- ``run``          resolution, seed, device, checkpoints and previews
+"""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import Field, asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Literal, Union
+from typing import Any, Literal, Union
+
+from ..errors import DoodleError
 
 #: With ``curves="auto"`` and ``detail="high"``, discovery chooses at most this many by all the lines they
 #: draw...
@@ -23,6 +37,9 @@ HULL_FALLBACK = 0.7
 InitMethod = Literal["auto", "points", "hull", "bbox"]
 Outline = Literal["auto", "superquadrics", "hull"]
 Detail = Literal["low", "medium", "high"]
+
+GROUPS = ("discovery", "abstraction", "outline", "optimiser", "run")
+"""The option groups, in the order ``doodle fit --help`` lists them."""
 
 
 @dataclass(frozen=True)
@@ -49,88 +66,135 @@ DETAIL_LEVELS: dict[str, DetailLevel] = {
 """``--detail``: at ``medium`` (the default) a stroke file of an object like a teapot or a cow takes under 2 kB."""
 
 
+def option(group: str, default: Any, help: str, *, kind: Any, limits: tuple[float, float] | None = None,
+           flag: str | None = None, internal: str | None = None, manifest: bool = True) -> Any:
+    """Declare one :class:`FitConfig` field.
+
+    Args:
+        group: one of :data:`GROUPS`.
+        help: the option's help text (``doodle fit --help``, the manifest's option list).
+        kind: ``int``, ``float``, ``bool``, ``str``, ``"count"`` (a number or ``auto``), ``"path"``, or a tuple of
+            the allowed words.
+        limits: inclusive bounds of a number.
+        flag: the command-line name (default ``--field-name``).
+        internal: not on the command line nor in manifests, and why (a test checks every field is one or the
+            other).
+        manifest: whether ``doodle batch`` manifests may set it (run options such as the device do not apply).
+    """
+    assert group in GROUPS, group
+    meta = {"group": group, "help": help, "kind": kind, "limits": limits, "flag": flag, "internal": internal,
+            "manifest": manifest and internal is None}
+    return field(default=default, metadata=meta)
+
 
 @dataclass
 class FitConfig:
-    curves: Union[int, Literal["auto"]] = "auto"
-    """Cubic Bézier curves (view-independent strokes): ``"auto"`` lets stroke discovery choose how many (at
-    most ``AUTO_MAX_CURVES``, and ``AUTO_OUTLINE_CURVES`` more for the outline when those fall short); a
-    number is an upper bound."""
-    discover: bool = True
-    """Find the curves from multi-view edge evidence (needs masks) and refine them; ``False``: fit curves
-    started at random hull points with the distance-field objective alone (the earlier method)."""
-    evidence_size: int = 512
-    """Image size (larger side, px) for the edge evidence; never enlarged."""
-    evidence_voxels: int = 192
-    """Evidence grid voxels along the object's longest side."""
-    contours: bool = True
-    """Discovery also offers each training view's outline traced into 3D (``doodle.fit.discovery.rims``): with
-    ``outline_hull`` as view-independent curves only (where the outline runs along a crease, the trace is the
-    crease); without it also as contour curves, drawn only from the views that graze them, which outline
-    smooth parts no fixed curve or superquadric draws."""
-    texture: bool = True
-    """Discovery takes strokes lying on smooth faces of the visual hull only for the outline they draw: a line
-    printed on a face (a decal, a label, grain) is texture, not structure (``doodle.fit.discovery.texture``)."""
-    outline: Outline = "auto"
-    """What draws the view-dependent outline. ``"auto"``: the compact abstraction, and the hull's outline
-    (a second fit) when superquadrics and outline curves together draw less than :data:`HULL_FALLBACK` of the
-    training silhouettes — an intricate object that a few superquadrics cannot abstract (Lego: 56 %, drawn as
-    a plate and ticks; the procedural and Blender scenes: 88–99 %). ``"superquadrics"`` (the compact abstraction): superquadrics
-    fitted to the visual hull in 3D (:mod:`doodle.fit.volume.abstraction`), curves where they do not reach; they also
-    hide what lies behind them. ``"hull"`` (the most faithful outline, 4–30 kB): the visual hull carved for
-    the evidence (``evidence_voxels`` on its longest side) is stored in the stroke file and every view draws
-    the outline of its projection where the other strokes leave it undrawn (``doodle.exporters.outline``);
-    strokes on smooth faces, chosen only for the outline they draw, are then not chosen. Masks only."""
-    detail: Detail = "medium"
-    """Abstraction level (:data:`DETAIL_LEVELS`): how many curves and superquadrics at most, and how much each
-    must add. ``curves``, ``max_superquadrics`` and ``discovery_min_gain``, when given, override it."""
-    occluder: bool | None = None
-    """Store the visual hull, on a coarse grid, in the stroke file as an occluder that hides the curves and
-    outlines behind it (with masks only; occluder-only superquadrics are then not kept). ``None``: with the
-    hull's outline only (the superquadrics hide what is behind them, and the file stays small)."""
-    discovery_min_gain: float | None = None
-    """Discovery keeps adding strokes while the next one newly explains at least this share of all line
-    pixels over the views (``None``: the detail level's)."""
-    outline_coverage: float = 0.9
-    """``superquadrics="auto"`` fits none when the discovered curves already draw this share of the
-    silhouettes' outline pixels; otherwise it fits them and keeps those whose outline is right and new."""
-    thin: float = 0.06
-    """Parts thinner than this share of the object's size are drawn by curves, never by superquadrics."""
-    superquadrics: Union[int, Literal["auto"]] = "auto"
-    """Number of superquadrics, or ``"auto"``: none when the images' lines are mostly long straight edges
-    (straightness ≥ ``straight_threshold``: boxy objects, which curves draw exactly); otherwise fit up to
-    ``max_superquadrics``, drop those that add less than 2 % silhouette IoU, refit the rest, and drop all if together they
-    cannot explain the silhouette."""
-    straight_threshold: float = 0.6
-    max_superquadrics: int | None = None
-    """At most this many superquadrics with ``superquadrics="auto"`` (``None``: the detail level's)."""
-    iterations: int | None = None
-    """Adam steps of the distance-field curve stage: default 0 after discovery (discovered curves are
-    already polished on the 3D evidence, which is sharper than the working images), 1500 without it."""
-    sq_iterations: int = 400
-    """Adam steps of the superquadric stage (before the curve stage, as in the paper)."""
-    size: int = 256
-    """Working resolution: images are resized so their larger side has this many pixels."""
-    views_per_step: int = 8
-    seed: int = 0
-    device: str = "cpu"
-    objective: str = "edges"
-    """Name of a registered objective (see :mod:`doodle.fit.objectives`)."""
-    init: InitMethod = "auto"
-    """Where initial strokes are placed: SfM ``points``, a visual ``hull`` carved from the masks, random in the
-    bounding box (``bbox``), or ``auto`` (points, else hull, else bbox)."""
-    prune_curves: bool = True
-    """After fitting, drop curves that do not lie on lines across the views (median distance above
-    ``curve_max_distance_px``) or are shorter than 2 % of the image; ``curves`` is then a maximum."""
-    curve_max_distance_px: float = 2.5
-    lr_curves: float = 0.01
-    """Adam learning rate of the curve control points, in units of the scene radius."""
-    lr_superquadrics: float = 0.02
-    width_px: float = 1.5
-    checkpoint_every: int = 200
-    preview_every: int = 250
-    preview_dir: Path | None = None
+    """Every option of a fit (``doodle fit``'s, one for one; see the module doc for the groups). The defaults
+    are what ``doodle fit SCENE -o OUT`` does."""
 
+    # -- discovery -----------------------------------------------------------------------------------------
+    curves: Union[int, Literal["auto"]] = option(
+        "discovery", "auto", "Bézier curves: 'auto' (discovery chooses how many, up to the --detail level's) or a "
+        "maximum; 0 draws the outline with superquadrics (or the hull) alone.", kind="count", limits=(0, 4096))
+    discover: bool = option(
+        "discovery", True, "Find curves from multi-view edge evidence (needs masks); --no-discover fits curves "
+        "started at SfM or hull points with the distance-field objective (the gradient stage).", kind=bool)
+    contours: bool = option(
+        "discovery", True, "Also offer the training views' outlines traced into 3D: view-independent curves where "
+        "they run along a crease and, beside superquadrics, contour curves drawn where a view grazes them.",
+        kind=bool)
+    texture: bool = option(
+        "discovery", True, "Take strokes that lie on smooth faces of the hull (print, decals, grain) only for the "
+        "outline they draw: printed lines are not structure.", kind=bool)
+    evidence_size: int = option(
+        "discovery", 512, "Image size (larger side, px) of the 3D edge evidence and of the carved volume; never "
+        "enlarged.", kind=int, limits=(64, 4096))
+    evidence_voxels: int = option(
+        "discovery", 192, "Voxels of the carved volume along the object's longest side.", kind=int,
+        limits=(32, 512))
+    discovery_min_gain: float | None = option(
+        "discovery", None, "Discovery adds curves while the next one newly explains at least this share of the "
+        "line pixels over the views [default: the --detail level's].", kind=float, limits=(0.0, 1.0),
+        flag="--min-gain")
+
+    # -- abstraction ---------------------------------------------------------------------------------------
+    detail: Detail = option(
+        "abstraction", "medium", "Abstraction level: how many curves + superquadrics at most, beside curves for the "
+        "outline the superquadrics leave open ("
+        + ", ".join(f"{k} {v.curves} + {v.superquadrics}" for k, v in DETAIL_LEVELS.items())
+        + "); every level draws the whole object.", kind=tuple(DETAIL_LEVELS))
+    superquadrics: Union[int, Literal["auto"]] = option(
+        "abstraction", "auto", "Superquadrics: 'auto' (fitted to the carved volume, as many as explain it, up to "
+        "the --detail level's) or a number fitted to the silhouettes.", kind="count", limits=(0, 64))
+    max_superquadrics: int | None = option(
+        "abstraction", None, "At most this many superquadrics with --superquadrics auto [default: the --detail "
+        "level's].", kind=int, limits=(0, 64))
+    thin: float = option(
+        "abstraction", 0.06, "Parts thinner than this share of the object's size (legs, cables, handles) are "
+        "drawn by curves, never by superquadrics.", kind=float, limits=(0.0, 0.5))
+    outline_coverage: float = option(
+        "abstraction", 0.9, "Beside the hull's outline, --superquadrics auto fits none when the discovered curves "
+        "already draw this share of the silhouettes' outline pixels.", kind=float, limits=(0.0, 1.0))
+    straight_threshold: float = option(
+        "abstraction", 0.6, "Without discovery, --superquadrics auto fits none when this share of the image lines "
+        "are long straight edges (a boxy object, which curves draw exactly).", kind=float, limits=(0.0, 1.0))
+
+    # -- outline -------------------------------------------------------------------------------------------
+    outline: Outline = option(
+        "outline", "auto", "What draws the outline: superquadrics fitted to the object's volume (compact, ~2 kB), "
+        "its voxel hull stored in the file (most faithful, 4-30 kB), or auto: superquadrics, and the hull when "
+        f"they and the outline curves draw under {HULL_FALLBACK:.0%} of the silhouettes (an intricate object).",
+        kind=("auto", "superquadrics", "hull"))
+    occluder: bool | None = option(
+        "outline", None, "Store a coarse voxel hull that hides what lies behind the object's bulk [default: with "
+        "--outline hull].", kind=bool)
+
+    # -- optimiser (the gradient stages) -------------------------------------------------------------------
+    iterations: int | None = option(
+        "optimiser", None, "Steps of the distance-field curve stage [default: 0 after discovery, else 1500].",
+        kind=int, limits=(0, 1_000_000))
+    sq_iterations: int = option(
+        "optimiser", 400, "Steps of the silhouette superquadric stage (--outline hull's growth, a fixed "
+        "--superquadrics count).", kind=int, limits=(0, 1_000_000))
+    views_per_step: int = option(
+        "optimiser", 8, "Training views per step of the distance-field curve stage.", kind=int, limits=(1, 10_000))
+    lr_curves: float = option(
+        "optimiser", 0.01, "Adam learning rate of the curves' control points, in units of the scene radius.",
+        kind=float, limits=(1e-6, 10.0))
+    lr_superquadrics: float = option(
+        "optimiser", 0.02, "Adam learning rate of the superquadric parameters.", kind=float, limits=(1e-6, 10.0))
+    objective: str = option(
+        "optimiser", "edges", "Objective of the gradient stages (edges: the weight-free default).", kind=str)
+    init: InitMethod = option(
+        "optimiser", "auto", "Where --no-discover places its first curves: SfM points, the carved hull, random in "
+        "the bounding box, or auto (points, else hull, else bbox).", kind=("auto", "points", "hull", "bbox"))
+    prune_curves: bool = option(
+        "optimiser", True, "After the distance-field stage, drop curves that do not lie on lines across the views "
+        "or are shorter than 2% of the image.", kind=bool, flag="--prune")
+    curve_max_distance_px: float = option(
+        "optimiser", 2.5, "--prune keeps a curve whose median distance to the views' lines is at most this (px).",
+        kind=float, limits=(0.0, 100.0), flag="--prune-distance")
+
+    # -- run -----------------------------------------------------------------------------------------------
+    size: int = option(
+        "run", 256, "Working resolution (larger image side, px) of the superquadric judging and the gradient "
+        "stages.", kind=int, limits=(16, 4096), flag="--size")
+    seed: int = option("run", 0, "Random seed (a fit is deterministic for one seed and thread count).", kind=int,
+                       limits=(0, 2**31 - 1))
+    device: str = option("run", "cpu", "torch device of the gradient stages: cpu, cuda, cuda:1 ...", kind=str,
+                         manifest=False)
+    width_px: float = option("run", 1.5, "Stroke width recorded in the file (px at the recorded image size).",
+                             kind=float, limits=(0.05, 100.0), flag="--width")
+    checkpoint_every: int = option(
+        "run", 200, "Steps between checkpoints inside a gradient stage (one is also written after every stage).",
+        kind=int, limits=(1, 1_000_000), manifest=False)
+    preview_every: int = option("run", 250, "Steps between --preview sheets.", kind=int, limits=(1, 1_000_000),
+                                manifest=False)
+    preview_dir: Path | None = option(
+        "run", None, "Write contact sheets of the strokes here every --preview-every steps of a gradient stage.",
+        kind="path", flag="--preview", manifest=False)
+
+    # -- derived ---------------------------------------------------------------------------------------------
     @property
     def level(self) -> DetailLevel:
         return DETAIL_LEVELS[self.detail]
@@ -143,6 +207,12 @@ class FitConfig:
     @property
     def use_occluder(self) -> bool:
         return self.outline_hull if self.occluder is None else bool(self.occluder)
+
+    @property
+    def load_size(self) -> int:
+        """The image size (larger side, px) a scene is loaded at for this fit: the finer of the evidence and
+        working sizes (``doodle fit`` and ``doodle batch`` alike)."""
+        return max(self.size, self.evidence_size)
 
     @property
     def max_curves(self) -> int:
@@ -187,7 +257,71 @@ class FitConfig:
             return self.iterations
         return 0 if self.discover else 1500
 
+    def check(self) -> None:
+        """Raise :class:`~doodle.errors.DoodleError` naming the option (as ``doodle fit`` spells it) for a value
+        of the wrong kind or out of its range."""
+        for f in config_fields():
+            value = getattr(self, f.name)
+            if value is None and f.default is None:
+                continue
+            problem = _problem(f.metadata["kind"], f.metadata["limits"], value)
+            if problem:
+                raise DoodleError(f"{cli_flag(f)} {problem}, got {value!r}")
+        if self.curves == 0 and self.superquadrics == 0:
+            raise DoodleError("nothing to fit: --curves 0 and --superquadrics 0")
+
     def to_dict(self) -> dict:
         d = asdict(self)
         d["preview_dir"] = str(self.preview_dir) if self.preview_dir else None
         return d
+
+
+def config_fields(group: str | None = None) -> list[Field]:
+    """The declared fields of :class:`FitConfig` (of one group), in declaration order."""
+    return [f for f in fields(FitConfig) if group is None or f.metadata["group"] == group]
+
+
+def cli_flag(f: Field) -> str:
+    """The command-line spelling of a field (``--evidence-size``)."""
+    return f.metadata["flag"] or "--" + f.name.replace("_", "-")
+
+
+def manifest_key(f: Field) -> str:
+    """A field's key in a batch manifest: its ``doodle fit`` flag with underscores (``evidence_size``,
+    ``min_gain``), but ``fit_size`` for ``--size`` (the manifest's ``size`` is the exported views')."""
+    return "fit_size" if f.name == "size" else cli_flag(f)[2:].replace("-", "_")
+
+
+def _problem(kind: Any, limits: tuple[float, float] | None, value: Any) -> str | None:
+    """What is wrong with ``value`` for an option of ``kind`` and ``limits`` (``None``: nothing)."""
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == "count":
+        if value == "auto":
+            return None
+        if not (isinstance(value, int) and not isinstance(value, bool)):
+            return "must be 'auto' or a whole number"
+    elif kind is int:
+        if not (isinstance(value, int) and not isinstance(value, bool)):
+            return "must be a whole number"
+    elif kind is float:
+        if not number or value != value:
+            return "must be a number"
+    elif kind is bool:
+        return None if isinstance(value, bool) else "must be true or false"
+    elif kind is str:
+        return None if isinstance(value, str) and value.strip() else "must be a word"
+    elif kind == "path":
+        return None if isinstance(value, (str, Path)) else "must be a path"
+    elif isinstance(kind, tuple):
+        return None if value in kind else "must be " + " or ".join(kind)
+    if limits is not None and not limits[0] <= value <= limits[1]:
+        lo, hi = limits
+        return f"must be in [{lo:g}, {hi:g}]"
+    return None
+
+
+def config_from_options(options: dict[str, Any]) -> FitConfig:
+    """A config from a mapping of field names (unknown keys are ignored: the caller's other options)."""
+    names = {f.name for f in config_fields()}
+    return FitConfig(**{k: v for k, v in options.items() if k in names})
+

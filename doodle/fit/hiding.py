@@ -21,7 +21,7 @@ from scipy import ndimage
 
 from ..cameras import Camera
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
-from .volume.outlines import ink_paths, raster_layer
+from ..exporters.raster import ink_paths, raster_layer
 
 MIN_HIDDEN_ON_LINES = 0.7
 """A curve's normals are dropped when the ink they hide on undrawn lines is at least this share of that ink

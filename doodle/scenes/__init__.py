@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..errors import SceneError
 from .colmap import find_model_dir, load_colmap
-from .scene import Scene, estimate_frame
+from .scene import Scene, estimate_frame, working_scene
 from .transforms import load_nerf_synthetic, load_nerfstudio
 
 
@@ -75,4 +75,4 @@ def load_cameras(root: str | Path, split: str = "test") -> list:
 
 
 __all__ = ["load_cameras", "load_scene_at_size", "Scene", "SceneError", "detect_format", "estimate_frame", "load_colmap", "load_nerf_synthetic",
-           "load_nerfstudio", "load_scene"]
+           "load_nerfstudio", "load_scene", "working_scene"]

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from ..cameras import Camera, azimuth_elevation, output_size
 from ..strokes.model import DefaultCamera, SceneFrame
@@ -46,6 +47,25 @@ class Scene:
             [self.masks[i] for i in idx] if self.masks is not None else None, self.points, self.source,
             [self.image_paths[i] for i in idx] if self.image_paths else [], self.masks_automatic,
         )
+
+
+def working_scene(scene: Scene, size: int) -> Scene:
+    """The scene with images, masks and cameras resized so the larger side is ``size`` pixels (never enlarged)."""
+    out_images, out_masks, out_cams = [], [], []
+    for k, (cam, img) in enumerate(zip(scene.cameras, scene.images)):
+        factor = min(1.0, size / max(cam.width, cam.height))
+        c = cam.scaled(factor) if factor < 1 else cam
+        if (c.width, c.height) != (img.shape[1], img.shape[0]):
+            img = np.asarray(Image.fromarray(img).resize((c.width, c.height), Image.Resampling.BOX))
+        out_images.append(img)
+        out_cams.append(c)
+        if scene.masks is not None:
+            m = scene.masks[k]
+            if m.shape != (c.height, c.width):
+                m = np.asarray(Image.fromarray(m.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
+            out_masks.append(m)
+    return Scene(out_cams, out_images, scene.frame, out_masks if scene.masks is not None else None, scene.points,
+                 scene.source, scene.image_paths, scene.masks_automatic)
 
 
 def closest_point_to_axes(cameras: list[Camera]) -> np.ndarray:

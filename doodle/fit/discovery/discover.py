@@ -29,7 +29,8 @@ from ...arrays import spread_indices
 from ...scenes import Scene
 from ...strokes.bezier import bezier_points
 from ...strokes.fitcurve import fit_cubics_many
-from .evidence import Evidence, _project, curve_samples, depth_maps, edge_evidence
+from ..volume.carve import VoxelGrid, project_points
+from .evidence import Evidence, curve_samples, depth_maps, edge_evidence
 from .facing import curve_normals
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, Rims, find_rims
@@ -136,7 +137,7 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
     for v in views:
         cam, lines = ev.cameras[v], ev.lines[v]
         H, W = lines.shape
-        u, w, z = _project(cam, P)
+        u, w, z = project_points(cam, P)
         ok = (z > 1e-6) & (u >= 1) & (w >= 1) & (u < W - 1) & (w < H - 1)
         if gated is not None:
             to_eye = cam.center.astype(np.float32) - Pg
@@ -149,7 +150,7 @@ def stroke_coverage(controls: np.ndarray, ev: Evidence, views: list[int], spacin
         if gated is not None:
             # a contour point's ray grazes the hull, whose depth there is the far side of a long chord: it is
             # tested a couple of voxels out along its normal, as the exporters test it against superquadrics
-            pu, pw, pz = _project(cam, Probes)
+            pu, pw, pz = project_points(cam, Probes)
             g = is_gated[idx]
             j = rank[idx[g]]
             inside = (pu[j] >= 0) & (pw[j] >= 0) & (pu[j] < W) & (pw[j] < H)
@@ -478,13 +479,13 @@ class Candidates:
 
 
 def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
-                     tolerance_voxels: float = TOLERANCE_VOXELS, contours: bool = True, texture: bool = True
-                     ) -> Traces:
+                     tolerance_voxels: float = TOLERANCE_VOXELS, contours: bool = True, texture: bool = True,
+                     carving: tuple[VoxelGrid, np.ndarray] | None = None) -> Traces:
     """Evidence, ridges, polylines, feature cubics, sight lines and contour curves (see :func:`find_candidates`
     for the arguments)."""
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
-    ev = edge_evidence(scene, max_voxels)
+    ev = edge_evidence(scene, max_voxels, carving=carving)
     seconds["evidence"] = time.perf_counter() - clock
     t = time.perf_counter()
     h = ev.grid.voxel
@@ -518,7 +519,8 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
                     tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48, contours: bool = True,
                     outline_reach: int | None = None, texture: bool = True, hull_outline: bool = False,
-                    log: Callable[[str], None] = lambda m: None, traces: Traces | None = None) -> Candidates:
+                    log: Callable[[str], None] = lambda m: None, traces: Traces | None = None,
+                    carving: tuple[VoxelGrid, np.ndarray] | None = None) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
     Args:
@@ -540,12 +542,15 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
             the outline they draw, are not taken at all (:attr:`Candidates.hull_outline`).
         traces: what :func:`trace_candidates` made of this scene with these arguments, to offer again
             (``None``: traced here).
+        carving: the visual hull ``(grid, occupied)`` carved from this scene with ``max_voxels`` (``None``:
+            carved here).
     """
     if outline_reach is None:
         outline_reach = AUTOMATIC_OUTLINE_REACH if scene.masks_automatic else 1
     reused = traces is not None
     if traces is None:
-        traces = trace_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, contours, texture)
+        traces = trace_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, contours, texture,
+                                  carving)
     ev, controls, smooth, rims = traces.evidence, traces.controls, traces.smooth, traces.rims
     seconds = dict(traces.seconds)
     gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)
@@ -670,14 +675,6 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             f"; {bridged} gaps bridged, {len(controls)} cubics after joining" if polish else ""))
     return Discovery(controls, normals, len(cand.controls), cand.polylines, coverage, outline, gains, h, seconds,
                      contour, source, outline_drawn)
-
-
-def discover_curves(scene: Scene, max_curves: int = 96, max_voxels: int = 192, threshold: float = 0.15,
-                    min_length: float = 0.03, tolerance_voxels: float = TOLERANCE_VOXELS, min_gain: float = 0.0005,
-                    max_views: int = 48, log: Callable[[str], None] = lambda m: None) -> Discovery:
-    """:func:`find_candidates` then :func:`choose_curves` (see their arguments)."""
-    cand = find_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, max_views, log=log)
-    return choose_curves(cand, max_curves, min_gain, log=log)
 
 
 def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None, hull=None) -> np.ndarray:

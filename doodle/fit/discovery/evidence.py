@@ -11,9 +11,7 @@ whether the carved hull leaves ``p`` in sight (its depth is at most the hull's d
 small margin). The ``+ 1`` damps voxels that only a view or two see. This is what NEF learns with a neural
 edge field over hours; here it is one pass over the voxels, seconds on a CPU, no weights.
 
-The hull is carved coarse to fine with the masks' signed distance transforms: a cell whose projection lies
-wholly outside some mask is empty, wholly inside every mask full, and only the cells in between are split,
-so the cost follows the hull's surface, not its volume.
+The hull comes from :mod:`doodle.fit.volume.carve` (carved once per fit).
 """
 
 from __future__ import annotations
@@ -26,71 +24,7 @@ from skimage import feature
 
 from ...cameras import Camera
 from ...scenes import Scene
-from ...scenes.scene import HULL_DISAGREE
-from ...strokes.model import Voxels
-
-
-@dataclass
-class VoxelGrid:
-    """A grid fitted to the object: voxel ``(i, j, k)`` has centre ``origin + (i, j, k) · voxel @ axes``.
-
-    ``axes`` ``(3, 3)``: the grid's unit axes in world coordinates, one per row (the identity for a grid
-    aligned with the world's axes).
-    """
-
-    origin: np.ndarray
-    voxel: float
-    shape: tuple[int, int, int]
-    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
-
-    def centres(self, ijk: np.ndarray) -> np.ndarray:
-        """World centres ``(P, 3)`` of voxel indices ``(P, 3)`` (fractional indices give points between)."""
-        return self.origin + (ijk * self.voxel) @ self.axes
-
-    def coordinates(self, points: np.ndarray) -> np.ndarray:
-        """Fractional voxel indices ``(P, 3)`` of world points: the inverse of :meth:`centres`."""
-        return ((points - self.origin) @ self.axes.T) / self.voxel
-
-    def index(self, points: np.ndarray) -> np.ndarray:
-        """Nearest voxel indices ``(P, 3)`` of world points (not clipped to the grid)."""
-        return np.rint(self.coordinates(points)).astype(np.int64)
-
-    def to_world(self, vectors: np.ndarray) -> np.ndarray:
-        """Directions ``(..., 3)`` along the grid's axes → world directions."""
-        return vectors @ self.axes
-
-    def volume(self, occupied: np.ndarray) -> Voxels:
-        """The stroke file's voxel volume of ``occupied`` ``bool`` (this grid's shape) on this grid (copied)."""
-        return Voxels(self.origin.copy(), float(self.voxel), self.axes.copy(), np.array(occupied, bool))
-
-
-def fit_axes(points: np.ndarray, up: np.ndarray, prefer_world: float = 0.9, steps: int = 36) -> np.ndarray:
-    """Axes ``(3, 3)`` (rows) of a box around ``points`` ``(P, 3)`` that is small: one axis along ``up``, the
-    other two turned about it to the angle giving the smallest box.
-
-    An object posed by structure-from-motion lies at any angle to the world's axes, and a box aligned
-    with them can hold half again its volume: the voxels, sized by the box, would be that much coarser. The
-    world's axes are kept unless the turned box is smaller than ``prefer_world`` × theirs (objects
-    modelled upright in a world frame keep their grid exactly).
-    """
-    def volume(axes: np.ndarray) -> float:
-        q = points @ axes.T
-        return float(np.prod(q.max(axis=0) - q.min(axis=0)))
-
-    world = np.eye(3)
-    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
-    a = np.eye(3)[int(np.argmin(np.abs(up)))]
-    e1 = np.cross(up, a)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(up, e1)
-    best, best_volume = world, volume(world)
-    for theta in np.linspace(0, 0.5 * np.pi, steps, endpoint=False):
-        x = np.cos(theta) * e1 + np.sin(theta) * e2
-        axes = np.stack([x, np.cross(up, x), up])
-        v = volume(axes)
-        if v < best_volume * (prefer_world if best is world else 1.0):
-            best, best_volume = axes, v
-    return best
+from ..volume.carve import VoxelGrid, carve_hull, project_points
 
 
 @dataclass
@@ -202,26 +136,28 @@ class ViewMaps:
     lines: np.ndarray
     response: np.ndarray
     directions: np.ndarray
-    sdf: np.ndarray
+    sdf: np.ndarray | None
 
 
 def view_maps(image: np.ndarray, mask: np.ndarray, sigma: float = 1.5, sigma_px: float = 1.0, thin: float = 0.06,
-              slack_px: float = 1.0) -> ViewMaps:
+              slack_px: float = 1.0, with_sdf: bool = True) -> ViewMaps:
     """Everything the vote needs from one view, sharing the distance transforms and the smoothed gradients.
 
     The response of a pixel is ``exp(−d² / 2σ²)`` of its distance ``d`` to the nearest line; its direction is
     that line's (across the image gradient there, or the mask's gradient on the mask boundary, where the
-    object may match the background's brightness).
+    object may match the background's brightness). ``with_sdf=False`` leaves out the signed distance (``None``),
+    which only carving reads: a fit carves once, before discovery.
     """
     # Only the signed distance needs the whole frame (the carving reads it far from the object); the line maps
     # are computed on the object's box (:data:`CROP_PAD`), where every line lies.
-    outside = ndimage.distance_transform_edt(~mask)
     box = _object_box(mask)
     crop = mask[box]
     inside = ndimage.distance_transform_edt(crop)
-    sdf = -outside
-    sdf[box] = np.where(crop, inside, sdf[box])
-    sdf = (sdf + slack_px).astype(np.float32)
+    sdf = None
+    if with_sdf:
+        sdf = -ndimage.distance_transform_edt(~mask)
+        sdf[box] = np.where(crop, inside, sdf[box])
+        sdf = (sdf + slack_px).astype(np.float32)
     gray, gx, gy = _gradients(image[box], sigma)
     lines = _lines(gray, gx, gy, crop, inside, sigma, 0.04, 0.08, 0.08, thin)
     m = ndimage.gaussian_filter(crop.astype(np.float32), sigma)
@@ -255,104 +191,6 @@ def curve_samples(controls: np.ndarray, voxel: float, spacing_px: float) -> tupl
     return points, np.concatenate(params), np.repeat(np.arange(len(controls)), n_samples), n_samples
 
 
-def _project(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel indices ``(u, v)`` (floor) and depth of world points; float32 math, it is the hot loop."""
-    R = cam.R.astype(np.float32)
-    pc = pts @ R.T + cam.t.astype(np.float32)
-    z = pc[:, 2]
-    zs = np.where(z > 1e-6, z, 1e-6)
-    u = np.floor(pc[:, 0] / zs * np.float32(cam.fx) + np.float32(cam.cx)).astype(np.int32)
-    v = np.floor(pc[:, 1] / zs * np.float32(cam.fy) + np.float32(cam.cy)).astype(np.int32)
-    return u, v, z
-
-
-def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray],
-              min_seen: int, disagree: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Cells of centre ``points`` and half-diagonal ``half_diag``: ``(surely inside, possibly inside)``.
-
-    A cell is surely empty when its projected disc lies outside the masks of more than ``disagree`` × the
-    views that see it (``0``: of any), surely full when no more of them leave any of it out. Views that do
-    not see the centre do not carve (a part out of frame is not absent).
-    """
-    pts = points.astype(np.float32)
-    outside = np.zeros(len(pts), np.int32)  # views whose mask misses the cell's disc
-    unsure = np.zeros(len(pts), np.int32)  # views whose mask does not hold all of it
-    seen = np.zeros(len(pts), np.int32)
-    for cam, sd in zip(cameras, sdf):
-        u, v, z = _project(cam, pts)
-        ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
-        rho = np.float32(max(cam.fx, cam.fy) * half_diag) / np.where(z > 1e-6, z, 1e-6) + 1.0
-        d = np.zeros(len(pts), np.float32)
-        d[ok] = sd[v[ok], u[ok]]
-        outside += ok & (d <= -rho)
-        unsure += ok & (d <= rho)
-        seen += ok
-    allowed = np.floor(disagree * seen)
-    maybe = (outside <= allowed) & (seen >= min_seen)
-    return maybe & (unsure <= allowed), maybe
-
-
-def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_seen_frac: float = 0.3,
-               levels: int = 3, sdf: list[np.ndarray] | None = None, disagree: float | None = None
-               ) -> tuple[VoxelGrid, np.ndarray]:
-    """Visual hull on a grid fitted to the object: ``(grid, occupied bool (X, Y, Z))``.
-
-    A 48³ pass over the bounding sphere finds the object's box, turned about the scene's up to fit it
-    (:func:`fit_axes`); the fine grid covers that box with
-    ``max_voxels`` voxels along its longest side and is carved coarse to fine (``levels`` halvings).
-    ``sdf``: the masks' signed distances (see :class:`ViewMaps`), when already computed. ``disagree``: the
-    share of the views seeing a voxel whose masks may call it background without carving it; ``None``:
-    :data:`HULL_DISAGREE` for automatic masks (``scene.masks_automatic``), 0 for given ones (exact: a tolerant
-    hull would fill what few views see).
-    """
-    if scene.masks is None:
-        raise ValueError("the scene has no masks")
-    if disagree is None:
-        disagree = HULL_DISAGREE if scene.masks_automatic else 0.0
-    cams = scene.cameras
-    if sdf is None:
-        sdf = []
-        for m in scene.masks:
-            inside, outside = ndimage.distance_transform_edt(m), ndimage.distance_transform_edt(~m)
-            sdf.append((np.where(m, inside, -outside) + slack_px).astype(np.float32))
-    min_seen = max(2, int(min_seen_frac * len(cams)))
-    f = scene.frame
-    r = 1.15 * f.radius
-    n0 = 48
-    g0 = (np.arange(n0) + 0.5) / n0 * 2 * r - r
-    pts0 = np.stack(np.meshgrid(g0, g0, g0, indexing="ij"), -1).reshape(-1, 3) + f.center
-    _, maybe0 = _classify(pts0, np.sqrt(3) * r / n0, cams, sdf, min_seen, disagree)
-    if not maybe0.any():
-        raise ValueError("the masks do not agree on any voxel (wrong poses or masks?)")
-    cell0 = 2 * r / n0
-    axes = fit_axes(pts0[maybe0], f.up)
-    q = pts0[maybe0] @ axes.T  # box in the grid's frame
-    lo = q.min(axis=0) - cell0
-    hi = q.max(axis=0) + cell0
-    voxel = float((hi - lo).max()) / max_voxels
-    step = 2 ** levels
-    shape = tuple(int(np.ceil((hi[a] - lo[a]) / (voxel * step))) * step for a in range(3))
-    grid = VoxelGrid((lo + 0.5 * voxel) @ axes, voxel, shape, axes)  # type: ignore[arg-type]
-    occupied = np.zeros(shape, bool)
-    # coarse-to-fine: cells of `step` voxels, split while undecided
-    coarse = np.stack(np.meshgrid(*[np.arange(s // step) for s in shape], indexing="ij"), -1).reshape(-1, 3) * step
-    size = step
-    while True:
-        centres = grid.centres(coarse + (size - 1) / 2)
-        full, maybe = _classify(centres, np.sqrt(3) * size * voxel / 2 if size > 1 else 0.0, cams, sdf, min_seen,
-                                disagree)
-        for i, j, k in coarse[full]:
-            occupied[i:i + size, j:j + size, k:k + size] = True
-        if size == 1:
-            break
-        split = coarse[maybe & ~full]
-        half = size // 2
-        offsets = np.stack(np.meshgrid(*[[0, half]] * 3, indexing="ij"), -1).reshape(-1, 3)
-        coarse = (split[:, None, :] + offsets[None]).reshape(-1, 3)
-        size = half
-    return grid, occupied
-
-
 def depth_maps(grid: VoxelGrid, occupied: np.ndarray, cameras: list[Camera]) -> list[np.ndarray]:
     """Per view, the depth of the hull's nearest surface voxel centre at every pixel (``inf`` off the hull).
 
@@ -371,7 +209,7 @@ def depth_maps(grid: VoxelGrid, occupied: np.ndarray, cameras: list[Camera]) -> 
     pts = grid.centres(np.argwhere(surface)).astype(np.float32)
     out = []
     for cam in cameras:
-        u, v, z = _project(cam, pts)
+        u, v, z = project_points(cam, pts)
         ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
         zbuf = np.full(cam.height * cam.width, np.inf, np.float32)
         np.minimum.at(zbuf, v[ok] * cam.width + u[ok], z[ok])
@@ -394,7 +232,7 @@ def _vote(pts: np.ndarray, cams: list[Camera], response: list[np.ndarray], direc
     total = np.zeros(len(pts), np.float32)
     count = np.zeros(len(pts), np.int16)
     for cam, resp, dirs, zb in zip(cams, response, directions, depth):
-        u, v, z = _project(cam, pts)
+        u, v, z = project_points(cam, pts)
         ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
         idx = np.flatnonzero(ok)
         idx = idx[z[idx] <= zb[v[idx], u[idx]] + margin]
@@ -422,7 +260,7 @@ def _vote(pts: np.ndarray, cams: list[Camera], response: list[np.ndarray], direc
 
 def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_voxels: float = 6.0,
                   sigma_px: float = 1.0, grow: int = 4, thin: float = 0.06, chunk: int = 1 << 16,
-                  disagree: float | None = None) -> Evidence:
+                  disagree: float | None = None, carving: tuple[VoxelGrid, np.ndarray] | None = None) -> Evidence:
     """Vote for 3D edges on a grid around the visual hull (see the module docstring).
 
     Args:
@@ -432,7 +270,9 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
         grow: … or at most this many outside it.
         margin_voxels: a voxel counts as visible when at most this far behind the hull's depth map.
         sigma_px: width of the line response.
-        disagree: of the hull's carving (see :func:`carve_hull`).
+        disagree: of the hull's carving (see :func:`~doodle.fit.volume.carve.carve_hull`).
+        carving: the hull ``(grid, occupied)`` already carved from this scene with ``max_voxels`` (a fit's volume
+            stage); ``None``: carved here.
 
     The per-view maps and the vote run in threads (numpy and scipy release the GIL in them): no worker
     processes, nothing to fork.
@@ -444,9 +284,10 @@ def edge_evidence(scene: Scene, max_voxels: int = 192, band: int = 12, margin_vo
     if scene.masks is None:
         raise ValueError("the scene has no masks")
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:
-        maps = list(pool.map(lambda im: view_maps(im[0], im[1], sigma_px=sigma_px, thin=thin),
-                             zip(scene.images, scene.masks)))
-        grid, occupied = carve_hull(scene, max_voxels, sdf=[vm.sdf for vm in maps], disagree=disagree)
+        maps = list(pool.map(lambda im: view_maps(im[0], im[1], sigma_px=sigma_px, thin=thin,
+                                                  with_sdf=carving is None), zip(scene.images, scene.masks)))
+        grid, occupied = carving if carving is not None else \
+            carve_hull(scene, max_voxels, sdf=[vm.sdf for vm in maps], disagree=disagree)
         cams = scene.cameras
         lines = [vm.lines for vm in maps]
         response = [vm.response for vm in maps]

@@ -15,7 +15,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ...strokes.bezier import bezier_points
-from .evidence import VoxelGrid
+from ..volume.carve import VoxelGrid
 
 FIT_GRAZING = 0.15
 """Cosine by which a face may turn away from a training view and still count as facing it (about 9°):
@@ -89,12 +89,12 @@ def curve_normals(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, c
 
 def _visibility(points: np.ndarray, cameras, depth, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """Per point and view: ``seen`` (1 visible, 0 hidden, −1 out of frame) and the unit direction to the eye."""
-    from .evidence import _project
+    from ..volume.carve import project_points
 
     seen = np.full((len(points), len(cameras)), -1, np.int8)
     to_eye = np.zeros((len(points), len(cameras), 3))
     for v, (cam, zb) in enumerate(zip(cameras, depth)):
-        u, w, z = _project(cam, points.astype(np.float32))
+        u, w, z = project_points(cam, points.astype(np.float32))
         ok = (z > 1e-6) & (u >= 0) & (w >= 0) & (u < cam.width) & (w < cam.height)
         seen[ok, v] = (z[ok] <= zb[w[ok], u[ok]] + margin).astype(np.int8)
         d = cam.center - points

@@ -19,7 +19,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from .evidence import VoxelGrid
+from ..volume.carve import VoxelGrid
 
 
 @dataclass

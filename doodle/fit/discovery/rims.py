@@ -29,7 +29,7 @@ from skimage import measure
 from ...arrays import along_polyline, first_occupied, free_space
 from ...cameras import Camera
 from ...strokes.fitcurve import fit_cubics_many
-from .evidence import VoxelGrid
+from ..volume.carve import VoxelGrid
 
 CONTOUR_GATES = (0.15, 0.3)
 """The contour gates each contour curve is offered with (the largest ``|cos|`` between its normal and the view

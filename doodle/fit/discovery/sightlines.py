@@ -20,7 +20,8 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from .evidence import Evidence, _project, curve_samples
+from ..volume.carve import project_points
+from .evidence import Evidence, curve_samples
 
 MIN_ON_LINES = 0.9
 """A hidden candidate is seen in a view when at least this share of its samples lies within a pixel of the
@@ -61,7 +62,7 @@ def seen_through(controls: np.ndarray, ev: Evidence, max_depth: int = 12, min_on
     for v, cam in enumerate(ev.cameras):
         lines = ev.lines[v]
         H, W = lines.shape
-        u, w, z = _project(cam, P)
+        u, w, z = project_points(cam, P)
         ok = (z > 1e-6) & (u >= 1) & (w >= 1) & (u < W - 1) & (w < H - 1)
         idx = np.flatnonzero(ok)
         zb = np.full(len(P), np.inf, np.float32)

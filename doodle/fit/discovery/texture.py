@@ -22,7 +22,7 @@ import numpy as np
 from scipy import ndimage
 
 from ...strokes.bezier import bezier_points
-from .evidence import VoxelGrid
+from ..volume.carve import VoxelGrid
 
 #: Above this coherence of the hull's outward directions the surface is a smooth face: a bend of less than
 #: 2 · acos(0.98) ≈ 23° within a couple of voxels (a box's edge is 90°, a sphere of 20 voxels' radius bends

@@ -34,7 +34,7 @@ from scipy import ndimage
 
 from ...strokes.model import SuperquadricSet
 from ...strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
-from ..params import SuperquadricParams
+from ..gradient.params import SuperquadricParams
 
 #: Voxels along the longest side of the grid the superquadrics are fitted on.
 WORK_VOXELS = 96

@@ -18,7 +18,7 @@ from scipy import ndimage
 
 from ...scenes import Scene
 from ...strokes.model import Voxels
-from ..discovery.evidence import VoxelGrid, _project, carve_hull
+from .carve import VoxelGrid, carve_hull, project_points
 from .abstraction import thick_part
 
 
@@ -104,7 +104,7 @@ def _splat(cam, pts: np.ndarray, grid: VoxelGrid) -> np.ndarray:
     img = np.zeros((cam.height, cam.width), bool)
     if len(pts) == 0:
         return img
-    u, v, z = _project(cam, pts)
+    u, v, z = project_points(cam, pts)
     ok = (z > 1e-6) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
     img[v[ok], u[ok]] = True
     footprint = max(cam.fx, cam.fy) * grid.voxel / float(np.median(z[ok])) if ok.any() else 1.0

@@ -22,6 +22,8 @@ import numpy as np
 from scipy import ndimage
 
 from ...cameras import Camera
+from ...exporters.raster import ink_paths, raster_layer
+from ..gradient.silhouettes import silhouette_pixels
 from ...strokes.bezier import bezier_points
 from ...strokes.model import OUTLINE_CELLS, CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 
@@ -47,27 +49,6 @@ MIN_CELL_SHARE = 0.5
 least this share of the contour drawn through it, pooled over the views, lies on the object's lines or outline.
 Held-out F with it: Cheburashka 0.813 → 0.833, rocker arm 0.815 → 0.819, snowman 0.937 → 0.947; 0.4 trims too
 little, 0.6 and 0.7 cost more outline than they gain precision."""
-
-
-def ink_paths(img: np.ndarray, ops) -> np.ndarray:
-    """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
-    H, W = img.shape
-    for op in ops:
-        p = np.floor(op.points()).astype(int)
-        ok = (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] < W) & (p[:, 1] < H)
-        img[p[ok, 1], p[ok, 0]] = True
-    return img
-
-
-def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
-    """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)``."""
-    out = []
-    for cam, d in zip(cameras, drawings):
-        per: dict[int, np.ndarray] = {}
-        for op in d.layer(layer):
-            ink_paths(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
-        out.append(per)
-    return out
 
 
 def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarray], masks: list[np.ndarray],
@@ -333,7 +314,7 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
     """
     from ...exporters.drawing import back_facing, occlusion_probes, off_contour
     from ...exporters.visibility import occluded
-    from ..discovery.evidence import _project
+    from .carve import project_points
 
     if len(sq) == 0 or sq.drawn.all():
         return sq
@@ -346,7 +327,7 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
     gates = np.repeat(curves.gates, samples_per_curve)
     rows, views, truth, shown = [], [], [], []
     for v, (cam, zb) in enumerate(zip(cameras, depth)):
-        u, w, z = _project(cam, pts.astype(np.float32))
+        u, w, z = project_points(cam, pts.astype(np.float32))
         ok = (z > 1e-6) & (u >= 0) & (w >= 0) & (u < cam.width) & (w < cam.height)
         idx = np.flatnonzero(ok)
         vis = z[idx] <= zb[w[idx], u[idx]] + hull_margin
@@ -368,3 +349,14 @@ def useful_occluders(sq: SuperquadricSet, curves: CurveSet, frame: SceneFrame, c
         gain = int((hides & ~truth).sum()) - 2 * int((hides & truth).sum())
         keep[i] = gain > 0
     return sq.subset(keep)
+
+
+def outline_share(sq: SuperquadricSet, frame: SceneFrame, cameras, masks: list[np.ndarray], reach: int = 2,
+                  occluder: Voxels | None = None) -> float:
+    """Share of the masks' outline pixels within ``reach`` px of the superquadrics' drawn outlines: how much of
+    the object's outline they draw, where no curves are chosen (``--curves 0``)."""
+    drawn = silhouette_pixels(sq, frame, cameras, grow_px=reach, occluder=occluder) if sq.drawn.any() else \
+        [np.zeros(m.shape, bool) for m in masks]
+    rims = [m ^ ndimage.binary_erosion(m) for m in masks]
+    total = sum(int(r.sum()) for r in rims)
+    return sum(int((r & d).sum()) for r, d in zip(rims, drawn)) / max(total, 1)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..strokes.model import CurveSet, SuperquadricSet
+from ...strokes.model import CurveSet, SuperquadricSet
 
 SHAPE_LO, SHAPE_HI = 0.1, 1.9
 

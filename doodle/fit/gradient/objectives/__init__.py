@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from ...errors import DoodleError
+from ....errors import DoodleError
 from .base import Objective, Terms
 from .edges import EdgesObjective
 

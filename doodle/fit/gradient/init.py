@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from ..scenes import Scene
+from ...scenes import Scene
 
 
 def farthest_points(points: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarray:
@@ -60,8 +60,8 @@ def initial_points(scene: Scene, method: str, rng: np.random.Generator,
     points triangulated with the known poses, else random points in the bounding box. ``points`` on a scene
     without SfM points triangulates them (pycolmap, known poses).
     """
-    from ..errors import SceneError
-    from ..scenes.triangulate import triangulate_scene_points
+    from ...errors import SceneError
+    from ...scenes.triangulate import triangulate_scene_points
 
     if method == "auto":
         if scene.points is not None and len(scene.points) >= 50:

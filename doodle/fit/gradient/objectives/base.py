@@ -7,7 +7,7 @@ from typing import Protocol
 
 import torch
 
-from ...strokes.model import SceneFrame
+from ....strokes.model import SceneFrame
 from ..params import CurveParams, SuperquadricParams
 from ..targets import ViewTargets
 

@@ -11,31 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from PIL import Image
 from scipy import ndimage
 from skimage import feature
 
-from ..cameras import Camera
-from ..scenes import Scene
-
-
-def working_scene(scene: Scene, size: int) -> Scene:
-    """The scene with images, masks and cameras resized so the larger side is ``size`` pixels (never enlarged)."""
-    out_images, out_masks, out_cams = [], [], []
-    for k, (cam, img) in enumerate(zip(scene.cameras, scene.images)):
-        factor = min(1.0, size / max(cam.width, cam.height))
-        c = cam.scaled(factor) if factor < 1 else cam
-        if (c.width, c.height) != (img.shape[1], img.shape[0]):
-            img = np.asarray(Image.fromarray(img).resize((c.width, c.height), Image.Resampling.BOX))
-        out_images.append(img)
-        out_cams.append(c)
-        if scene.masks is not None:
-            m = scene.masks[k]
-            if m.shape != (c.height, c.width):
-                m = np.asarray(Image.fromarray(m.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
-            out_masks.append(m)
-    return Scene(out_cams, out_images, scene.frame, out_masks if scene.masks is not None else None, scene.points,
-                 scene.source, scene.image_paths, scene.masks_automatic)
+from ...cameras import Camera
+from ...scenes import Scene
 
 
 def line_map(image: np.ndarray, mask: np.ndarray | None, sigma: float = 2.0) -> np.ndarray:

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import torch
 
-from ...strokes.model import SceneFrame
-from ...strokes.superquadric import log_inside_outside, quaternion_to_matrix
+from ....strokes.model import SceneFrame
+from ....strokes.superquadric import log_inside_outside, quaternion_to_matrix
 from ..params import CurveParams, SuperquadricParams
 from ..targets import ViewTargets, lookup, project
 from .base import Terms

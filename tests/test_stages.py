@@ -1,0 +1,144 @@
+"""The fit as stages: a real Ctrl-C in each stage of a default fit leaves a readable stroke file and exit code
+130; ``--resume`` then gives exactly the file an uninterrupted fit gives."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from doodle.cli import cli
+from doodle.fit import FitConfig, fit
+from doodle.scenes import load_scene
+from doodle.strokes import read_strokes
+from doodle.strokes.binary import encode
+
+#: A default fit, small: the compact abstraction draws the snowman's balls, curves its nose and arms.
+SMALL = ["--size", "64", "--evidence-size", "96", "--evidence-voxels", "64"]
+STAGES = ("prepare", "volume", "discover", "superquadrics", "curves", "assemble")
+
+
+def _bytes(path) -> bytes:
+    s = read_strokes(path)
+    s.provenance.pop("seconds")
+    return encode(s)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(snowman_dir, tmp_path_factory) -> bytes:
+    out = tmp_path_factory.mktemp("fit") / "s.doodleb"
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL])
+    assert r.exit_code == 0, r.output
+    s = read_strokes(out)
+    assert s.superquadrics.drawn.any() and len(s.curves)  # the default path: both kinds of stroke
+    return _bytes(out)
+
+
+def _ctrl_c_at(monkeypatch, stage: str) -> None:
+    """Send this process a real SIGINT as ``stage`` begins (as a user's Ctrl-C would arrive)."""
+    from doodle.fit import pipeline
+    from doodle.fit.stages import assemble, curves, discover, superquadrics, volume
+
+    owner, name = {"prepare": (pipeline, "prepare"), "assemble": (assemble, "assemble"), "volume": (volume, "run"),
+                   "discover": (discover, "run"), "superquadrics": (superquadrics, "run"),
+                   "curves": (curves, "run")}[stage]
+    original = getattr(owner, name)
+
+    def interrupted(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, interrupted)
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_ctrl_c_in_each_stage_writes_what_the_finished_stages_give_and_resume_finishes(
+        stage, snowman_dir, tmp_path, monkeypatch, uninterrupted):
+    out = tmp_path / "s.doodleb"
+    _ctrl_c_at(monkeypatch, stage)
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL])
+    monkeypatch.undo()
+    assert r.exit_code == 130, r.output
+    assert "interrupted" in r.output and (tmp_path / "s.doodleb.ckpt").exists()
+    s = read_strokes(out)
+    if stage in ("prepare", "volume", "discover"):  # held until the volume is carved: its outline
+        assert s.hull is not None and s.hull.occupied.any() and not len(s.curves) and not len(s.superquadrics)
+    elif stage == "superquadrics":  # discovery's strong curves, and the hull's outline where no superquadric is
+        assert len(s.curves) and s.hull is not None and not len(s.superquadrics)
+    else:  # the superquadrics are settled
+        assert s.superquadrics.drawn.any() and len(s.curves) and s.hull is None
+    if stage == "assemble":  # held until the strokes were complete
+        assert _bytes(out) == uninterrupted
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL, "--resume"])
+    assert r.exit_code == 0, r.output
+    assert _bytes(out) == uninterrupted and not (tmp_path / "s.doodleb.ckpt").exists()
+
+
+def test_a_second_ctrl_c_stops_at_once_and_writes_nothing(snowman_dir, tmp_path, monkeypatch):
+    """While the volume is carved a first Ctrl-C is held; a second one stops the fit there, with nothing to
+    write yet: the output file stays as it was."""
+    from doodle.fit.stages import volume
+
+    original = volume.run
+
+    def twice(state):
+        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGINT)
+        return original(state)
+
+    monkeypatch.setattr(volume, "run", twice)
+    out = tmp_path / "s.doodleb"
+    out.write_bytes(b"earlier")
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL])
+    assert r.exit_code == 130 and out.read_bytes() == b"earlier"
+
+
+def test_a_fit_in_another_thread_is_interrupted_as_before(snowman_dir):
+    """Only the main thread can hold a Ctrl-C: elsewhere the library's behaviour is a plain
+    ``KeyboardInterrupt`` turned into an interrupted fit at the stage it reaches."""
+    import threading
+
+    from doodle.fit.stages import discover
+
+    results = []
+    original = discover.run
+
+    def interrupted(state):
+        raise KeyboardInterrupt
+
+    discover.run = interrupted
+    try:
+        worker = threading.Thread(target=lambda: results.append(
+            fit(load_scene(snowman_dir), FitConfig(size=64, evidence_size=96, evidence_voxels=64), progress=False,
+                log=lambda m: None)))
+        worker.start()
+        worker.join(120)
+    finally:
+        discover.run = original
+    (res,) = results
+    assert res.interrupted and res.strokes.hull is not None and not len(res.strokes.curves)
+
+
+def test_curves_0_draws_the_outline_or_says_why_not(chair_dir, tmp_path):
+    """``--curves 0`` on the chair (thin legs, a slab seat and back): the superquadrics draw too little of it,
+    so ``auto`` draws the hull's outline; with ``--outline superquadrics`` it says why nothing is drawn."""
+    out = tmp_path / "c.doodleb"
+    r = CliRunner().invoke(cli, ["fit", str(chair_dir), "-o", str(out), "--curves", "0", *SMALL])
+    assert r.exit_code == 0, r.output
+    s = read_strokes(out)
+    assert not len(s.curves) and s.hull is not None and s.hull.occupied.any()
+    r = CliRunner().invoke(cli, ["fit", str(chair_dir), "-o", str(tmp_path / "x.doodleb"), "--curves", "0",
+                                 "--outline", "superquadrics", *SMALL])
+    last = r.output.strip().splitlines()[-1]
+    assert r.exit_code == 2 and last.startswith("Error: ") and "--curves 0" in last and "Traceback" not in r.output
+    assert not (tmp_path / "x.doodleb").exists()
+
+
+def test_the_stages_report_their_time(snowman_dir):
+    res = fit(load_scene(snowman_dir), FitConfig(size=64, evidence_size=96, evidence_voxels=64), progress=False,
+              log=lambda m: None)
+    assert list(res.stage_seconds) == ["prepare", *STAGES[1:-1], "assemble"]
+    assert np.isclose(sum(res.stage_seconds.values()), res.seconds, rtol=0.2, atol=0.5)
