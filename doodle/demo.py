@@ -20,17 +20,21 @@ DEMO_SCENE = "snowman"
 
 
 def run_demo(out_dir: str | Path = "doodle-demo", scene: str = DEMO_SCENE, config: FitConfig | None = None,
-             log: Callable[[str], None] = print, progress: bool = True) -> dict[str, Path]:
-    """Render a sample scene, fit it, export 36 SVG views, a contact sheet, a turntable GIF and metrics.
+             log: Callable[[str], None] = print, progress: bool = True, train: int = 40, test: int = 10,
+             size: int = 256) -> dict[str, Path]:
+    """Render a sample scene (``train`` + ``test`` views at ``size`` px), fit it, export 36 SVG views, a
+    contact sheet, a turntable GIF and the held-out metrics.
 
     Returns:
         The paths written, by name.
     """
     out = Path(out_dir)
     start = time.perf_counter()
-    scene_dir = write_sample(scene, out / "scene", force=True)
+    scene_dir = write_sample(scene, out / "scene", n_train=train, n_test=test, size=size, force=True)
     log(f"1/4 rendered the procedural '{scene}' scene into {scene_dir}")
     result = fit(load_scene(scene_dir), config or FitConfig(), log=lambda m: log(f"    {m}"), progress=progress)
+    if result.interrupted:
+        raise KeyboardInterrupt
     strokes_path = out / "strokes.doodle"
     write_strokes(strokes_path, result.strokes)
     log(f"2/4 fitted {len(result.strokes.curves)} curves + {len(result.strokes.superquadrics)} superquadrics "

@@ -23,6 +23,7 @@ from doodle.errors import DoodleError
 MANIFEST = """
 [defaults]
 detail = "low"
+evidence_voxels = 64
 views = 3
 size = 96
 frames = 4

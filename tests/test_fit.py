@@ -12,7 +12,8 @@ from doodle.cli import cli
 from doodle.errors import DoodleError, SceneError
 from doodle.evaluate import evaluate
 from doodle.fit import FitConfig, fit
-from doodle.fit.gradient.init import farthest_points, visual_hull
+from doodle.fit.gradient.init import farthest_points, hull_points
+from doodle.fit.volume.carve import carve_hull
 from doodle.fit.gradient.objectives import make_objective
 from doodle.fit.gradient.prune import prune_curves
 from doodle.fit.gradient.silhouettes import silhouette_iou
@@ -24,7 +25,18 @@ from doodle.strokes import CurveSet, StrokeSet, read_strokes
 
 from helpers_geometry import edge_scores, hole_points, inside_superquadrics, thin_axes
 
-QUICK = dict(size=96, views_per_step=4, checkpoint_every=20)
+QUICK = dict(size=96, evidence_voxels=96, sq_iterations=40, views_per_step=4, checkpoint_every=20)
+
+
+def quick(**options) -> FitConfig:
+    """A small fit's options (the tests' scenes are 12-20 views at 128-160 px), with ``options`` over them."""
+    return FitConfig(**{**QUICK, **options})
+
+
+def _carved(scene, size: int):
+    """The working scene at ``size`` and the fit's carving of it (192 voxels): what the thick part is taken from."""
+    work = working_scene(scene, size)
+    return (work, *carve_hull(work, 192))
 
 
 def _gt_curves(gt_edges: np.ndarray) -> np.ndarray:
@@ -40,14 +52,17 @@ class TestInitialisation:
         d = np.linalg.norm(chosen[:, None] - chosen[None], axis=-1) + np.eye(8) * 9
         assert d.min() > 0.8
 
-    def test_visual_hull_contains_ground_truth(self, chair_dir):
+    def test_the_gradient_path_starts_inside_the_carving(self, chair_dir):
         scene = load_scene(chair_dir)
-        interior, surface, voxel = visual_hull(scene)
+        grid, occupied = carve_hull(scene, 192)
+        interior, surface = hull_points(grid, occupied, 64)
+        voxel = grid.voxel * np.ceil(max(occupied.shape) / 64)
         prims = load_ground_truth(chair_dir)["primitives"]
         inside_gt = np.zeros(len(interior), bool)
         for p in prims:
             inside_gt |= p.contains(interior, margin=1.5 * voxel)
         assert inside_gt.mean() > 0.6  # a hull over-approximates, but must hug a chair from 12 views
+        assert 0 < len(surface) < len(interior)
         assert np.linalg.norm(interior - scene.frame.center, axis=1).max() <= 1.15 * scene.frame.radius + 1e-9
 
 
@@ -71,7 +86,7 @@ class TestInitialisation:
         from doodle.fit.volume.hull import OCCLUDER_VOXELS, hull_occluder
 
         scene = load_scene(chair_dir)
-        occ = hull_occluder(scene)
+        occ = hull_occluder(*carve_hull(scene, 192))
         assert max(occ.occupied.shape) <= OCCLUDER_VOXELS + 2 and np.allclose(occ.axes @ occ.axes.T, np.eye(3))
         idx = np.argwhere(occ.occupied)
         centres = occ.origin + (idx * occ.voxel) @ occ.axes
@@ -96,7 +111,7 @@ class TestValidation:
         if kw.get("device", "").startswith("cuda") and torch.cuda.is_available():
             pytest.skip("CUDA present")
         with pytest.raises(DoodleError, match=msg):
-            fit(load_scene(chair_dir), FitConfig(**{**QUICK, "iterations": 1, **kw}), progress=False)
+            fit(load_scene(chair_dir), quick(iterations=1, **kw), progress=False)
 
 
 class TestShortFits:
@@ -104,7 +119,7 @@ class TestShortFits:
         scene = load_scene(chair_dir)
         gt = load_ground_truth(chair_dir)["feature_edges"]
         tol = 0.05 * scene.frame.radius  # 96 px working size: 1 px ≈ 3 % of the radius
-        cfg = FitConfig(curves=12, superquadrics=0, iterations=250, prune_curves=False, discover=False, **QUICK)
+        cfg = quick(curves=12, superquadrics=0, iterations=250, prune_curves=False, discover=False)
         before = fit(scene, FitConfig(**{**vars(cfg), "iterations": 0}), progress=False, log=lambda m: None)
         after = fit(scene, cfg, progress=False, log=lambda m: None)
         p0, r0 = edge_scores(before.strokes.curves.control_points, gt, tol)
@@ -115,7 +130,7 @@ class TestShortFits:
 
     def test_superquadrics_explain_the_silhouette(self, snowman_dir):
         scene = load_scene(snowman_dir)
-        res = fit(scene, FitConfig(curves=0, superquadrics=3, sq_iterations=150, **QUICK), progress=False, log=lambda m: None)
+        res = fit(scene, quick(curves=0, superquadrics=3, sq_iterations=150), progress=False, log=lambda m: None)
         assert len(res.strokes.superquadrics) == 3
         test = working_scene(load_scene(snowman_dir, split="test"), 96)
         assert silhouette_iou(res.strokes.superquadrics, test.cameras, test.masks) > 0.8
@@ -139,8 +154,7 @@ class TestShortFits:
 
         box = Box(np.array([0.0, 0.0, -0.2]), half=np.array([0.6, 0.45, 0.35]), color=(0.8, 0.66, 0.45))
         logs = []
-        res = fit(render_scene([box]), FitConfig(curves=0, outline="hull", sq_iterations=100, straight_threshold=1.0,
-                                                 **QUICK), progress=False, log=logs.append)
+        res = fit(render_scene([box]), quick(curves=0, outline="hull", sq_iterations=100, straight_threshold=1.0), progress=False, log=logs.append)
         sq = res.strokes.superquadrics
         assert any("is a box" in m for m in logs) and len(sq) == 1, logs
         assert sq.drawn[0] and sq.shape[0].max() < 0.4, (sq.shape, logs)
@@ -152,7 +166,7 @@ class TestShortFits:
         """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
         drawn (some may stay as occluders), and the curves carry face normals for hidden-line removal."""
         logs = []
-        res = fit(load_scene(chair_dir), FitConfig(sq_iterations=40, outline="hull", **QUICK), progress=False,
+        res = fit(load_scene(chair_dir), quick(outline="hull", max_superquadrics=3), progress=False,
                   log=logs.append)
         s = res.strokes
         assert not s.superquadrics.drawn.any() and len(s.curves) >= 12
@@ -165,7 +179,7 @@ class TestShortFits:
     def test_the_evidence_hull_draws_the_held_out_outlines(self, chair_dir):
         """The fit stores the evidence's hull, and its outline draws the held-out views' outlines, which the
         curves alone leave in gaps; there are no contour curves beside it."""
-        cfg = FitConfig(superquadrics=0, outline="hull", **QUICK)
+        cfg = quick(superquadrics=0, outline="hull")
         s = fit(load_scene(chair_dir), cfg, progress=False, log=lambda m: None).strokes
         assert s.hull is not None and s.hull.occupied.any() and not (s.curves.gates > 0).any()
         test = load_scene(chair_dir, split="test")
@@ -176,15 +190,15 @@ class TestShortFits:
 
     def test_auto_grows_superquadrics_for_a_smooth_object(self, snowman_dir):
         logs = []
-        res = fit(load_scene(snowman_dir), FitConfig(curves=0, outline="hull", sq_iterations=60, **QUICK), progress=False,
+        res = fit(load_scene(snowman_dir), quick(curves=0, outline="hull", max_superquadrics=4), progress=False,
                   log=logs.append)
-        assert 1 <= len(res.strokes.superquadrics) <= 8 and any("explain the silhouettes" in m for m in logs)
+        assert 1 <= len(res.strokes.superquadrics) <= 4 and any("explain the silhouettes" in m for m in logs)
 
     def test_scene_without_masks_fits_curves_only(self, chair_dir):
         scene = load_scene(chair_dir)
         scene.masks = None
         logs = []
-        res = fit(scene, FitConfig(curves=4, superquadrics=2, iterations=10, prune_curves=False, **QUICK),
+        res = fit(scene, quick(curves=4, superquadrics=2, iterations=10, prune_curves=False),
                   progress=False, log=logs.append)
         assert len(res.strokes.superquadrics) == 0 and len(res.strokes.curves) == 4 and any("no masks" in m for m in logs)
         assert res.strokes.hull is None and res.strokes.occluder is None  # both are carved from masks
@@ -219,7 +233,7 @@ class TestCheckpoints:
 
     def test_interrupt_then_resume(self, chair_dir, tmp_path, monkeypatch):
         scene = load_scene(chair_dir)
-        cfg = FitConfig(curves=6, superquadrics=0, iterations=60, **QUICK)
+        cfg = quick(curves=6, superquadrics=0, iterations=60)
         ckpt = tmp_path / "s.doodle.ckpt"
         self._interrupting(monkeypatch, 45)
         res = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None)
@@ -234,7 +248,7 @@ class TestCheckpoints:
         """Interrupted in the curves' gradient stage, a fit resumes with the curves it chose: the contour curves
         and their gates come from the checkpoint."""
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, **QUICK)
+        cfg = quick(superquadrics=0, iterations=30)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.curves
@@ -257,7 +271,7 @@ class TestCheckpoints:
             return free
 
         scene = load_scene(snowman_dir)
-        cfg = FitConfig(superquadrics=0, iterations=30, outline="hull", **QUICK)
+        cfg = quick(superquadrics=0, iterations=30, outline="hull")
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 10)
         monkeypatch.setattr(discover, "seen_through", top_half)
@@ -288,13 +302,13 @@ class TestCheckpoints:
         scene = load_scene(chair_dir)
         ckpt = tmp_path / "s.ckpt"
         self._interrupting(monkeypatch, 25)
-        fit(scene, FitConfig(curves=6, superquadrics=0, iterations=60, **QUICK), checkpoint=ckpt, progress=False, log=lambda m: None)
+        fit(scene, quick(curves=6, superquadrics=0, iterations=60), checkpoint=ckpt, progress=False, log=lambda m: None)
         with pytest.raises(DoodleError, match="curves=6"):
-            fit(scene, FitConfig(curves=7, superquadrics=0, iterations=60, **QUICK), checkpoint=ckpt, resume=True, progress=False)
+            fit(scene, quick(curves=7, superquadrics=0, iterations=60), checkpoint=ckpt, resume=True, progress=False)
 
     def test_resume_without_checkpoint(self, chair_dir, tmp_path):
         with pytest.raises(DoodleError, match="no checkpoint"):
-            fit(load_scene(chair_dir), FitConfig(**QUICK), checkpoint=tmp_path / "none.ckpt", resume=True, progress=False)
+            fit(load_scene(chair_dir), quick(), checkpoint=tmp_path / "none.ckpt", resume=True, progress=False)
 
 
 class TestAutoOutline:
@@ -320,7 +334,7 @@ class TestAutoOutline:
     def test_falls_back_to_the_hull_only_when_the_outline_is_not_drawn(self, chair_dir, monkeypatch, drawn, want):
         calls = self._calls(monkeypatch, drawn)
         logs: list[str] = []
-        res = fit(load_scene(chair_dir), FitConfig(**QUICK), progress=False, log=logs.append)
+        res = fit(load_scene(chair_dir), quick(), progress=False, log=logs.append)
         assert calls == want
         if len(want) == 2:
             assert res.seconds == 2.0 and any("56%" in m and "hull" in m for m in res.log)
@@ -330,14 +344,14 @@ class TestAutoOutline:
     def test_an_explicit_outline_or_count_is_kept(self, chair_dir, monkeypatch):
         calls = self._calls(monkeypatch, 0.3)
         scene = load_scene(chair_dir)
-        for cfg in (FitConfig(outline="superquadrics", **QUICK), FitConfig(outline="hull", **QUICK),
-                    FitConfig(superquadrics=3, **QUICK)):
+        for cfg in (quick(outline="superquadrics"), quick(outline="hull"),
+                    quick(superquadrics=3)):
             fit(scene, cfg, progress=False, log=lambda m: None)
         assert calls == ["superquadrics", "hull", "superquadrics"]
 
     def test_an_interrupted_fit_is_not_repeated(self, chair_dir, monkeypatch):
         calls = self._calls(monkeypatch, 0.3, interrupted=True)
-        assert fit(load_scene(chair_dir), FitConfig(**QUICK), progress=False, log=lambda m: None).interrupted
+        assert fit(load_scene(chair_dir), quick(), progress=False, log=lambda m: None).interrupted
         assert calls == ["superquadrics"]
 
     def test_resume_goes_on_with_the_fit_that_was_interrupted(self, chair_dir, tmp_path, monkeypatch):
@@ -345,7 +359,7 @@ class TestAutoOutline:
         ckpt = tmp_path / "s.ckpt"
         torch.save({"format": "doodle-checkpoint", "config": {"outline": "hull"}}, ckpt)
         monkeypatch.setattr("doodle.fit.pipeline.load_checkpoint", lambda path: torch.load(path, weights_only=True))
-        fit(load_scene(chair_dir), FitConfig(**QUICK), checkpoint=ckpt, resume=True, progress=False, log=lambda m: None)
+        fit(load_scene(chair_dir), quick(), checkpoint=ckpt, resume=True, progress=False, log=lambda m: None)
         assert calls == ["hull"]
 
     def test_the_fallback_traces_once_and_equals_a_fit_with_the_hulls_outline(self, snowman_dir, monkeypatch):
@@ -356,20 +370,20 @@ class TestAutoOutline:
         from doodle.strokes.binary import encode
 
         scene = load_scene(snowman_dir)
-        alone = fit(scene, FitConfig(outline="hull", **QUICK), progress=False, log=lambda m: None)
+        alone = fit(scene, quick(outline="hull", max_superquadrics=3), progress=False, log=lambda m: None)
         traced = []
         real = discover.trace_candidates
         monkeypatch.setattr(discover, "trace_candidates", lambda *a, **k: traced.append(1) or real(*a, **k))
         monkeypatch.setattr(config, "HULL_FALLBACK", 1.01)  # every fit falls back
         logs: list[str] = []
-        auto = fit(scene, FitConfig(**QUICK), progress=False, log=logs.append)
+        auto = fit(scene, quick(max_superquadrics=3), progress=False, log=logs.append)
         assert len(traced) == 1 and any("traced once, offered again" in m for m in logs)
         for res in (auto, alone):
             res.strokes.provenance.pop("seconds")
         assert encode(auto.strokes) == encode(alone.strokes)
 
     def test_a_real_fit_reports_how_much_outline_it_draws(self, snowman_dir):
-        res = fit(load_scene(snowman_dir), FitConfig(outline="superquadrics", **QUICK), progress=False,
+        res = fit(load_scene(snowman_dir), quick(outline="superquadrics"), progress=False,
                   log=lambda m: None)
         assert res.outline_drawn is not None and 0.7 <= res.outline_drawn <= 1.0
 
@@ -444,15 +458,18 @@ class TestCli:
 
 
 def test_demo_short(tmp_path):
+    """The demo end to end on a small snowman (12 views at 128 px), the default fit: every file it promises,
+    and a sketch that draws the held-out views (measured F 0.998 at this size)."""
     from doodle.demo import run_demo
 
-    paths = run_demo(tmp_path / "demo", "snowman", FitConfig(curves=4, iterations=30, sq_iterations=30, size=96),
-                     log=lambda m: None, progress=False)
+    paths = run_demo(tmp_path / "demo", "snowman", FitConfig(size=128), log=lambda m: None, progress=False,
+                     train=12, test=3, size=128)
     assert len(list(paths["views"].glob("view_*.svg"))) == 36
     assert Image.open(paths["sheet"]).size[0] > 500
     assert Image.open(paths["gif"]).n_frames == 36
     m = json.loads(paths["metrics"].read_text())
-    assert 0 <= m["line_precision"] <= 1
+    assert m["views"] == 3 and m["f_score"] >= 0.95 and m["line_precision"] >= 0.95, m
+    assert read_strokes(paths["strokes"]).superquadrics.drawn.sum() >= 2  # the balls, drawn by their outlines
 
 
 class TestThinParts:
@@ -464,7 +481,7 @@ class TestThinParts:
     def test_only_the_head_is_thick(self, tripod_dir, size):
         from doodle.fit.volume.hull import thick_volume
 
-        volume = thick_volume(working_scene(load_scene(tripod_dir), size))
+        volume = thick_volume(*_carved(load_scene(tripod_dir), size))
         head = next(p for p in load_ground_truth(tripod_dir)["primitives"] if p.kind == "sphere")
         assert volume.thin_share > 0.6, volume.thin_share
         assert np.linalg.norm(volume.interior - head.center, axis=1).max() < head.radius + 0.1
@@ -473,7 +490,7 @@ class TestThinParts:
         from doodle.fit.volume.hull import thick_volume
 
         lamp = write_sample("lamp", tmp_path / "lamp", n_train=12, n_test=1, size=128)
-        volume = thick_volume(working_scene(load_scene(lamp), 128))
+        volume = thick_volume(*_carved(load_scene(lamp), 128))
         nearest = lambda p: np.linalg.norm(volume.interior - p, axis=1).min()  # noqa: E731
         assert nearest([0, 0, 0.74]) < 0.05 and nearest([0.3, 0.3, -0.84]) < 0.05  # the bulb, a base corner
         assert nearest([0, 0, -0.4]) > 0.15  # the stem's middle
@@ -485,7 +502,7 @@ class TestThinParts:
 
         mug = write_sample("mug", tmp_path / "mug", n_train=12, n_test=1, size=128)
         prims = load_ground_truth(mug)["primitives"]
-        thick = cKDTree(thick_volume(working_scene(load_scene(mug), 128)).interior)
+        thick = cKDTree(thick_volume(*_carved(load_scene(mug), 128)).interior)
         body = next(p for p in prims if p.kind == "cylinder")
         (_, handle), = thin_axes(prims)
         handle = handle[~body.contains(handle[:, 0], 0.1), 0]
@@ -509,24 +526,32 @@ class TestThinParts:
         assert m["f_score"] > 0.85, m  # measured 0.90
 
 
-# ---- the issue's quality bars: full-size fits (run with -m slow) -----------------------------------------------
+# ---- quality bars -------------------------------------------------------------------------------------------
 
-@pytest.mark.slow
 def test_quality_chair_curves(tmp_path):
-    scene_dir = write_sample("chair", tmp_path / "chair")
+    """24 curves and no superquadric on the chair (24 views at 192 px): on its true edges (precision, within 2 %
+    of the radius) and covering them (recall). Measured 0.964 / 0.722 (at 40 views and 256 px: 0.96 / 0.74)."""
+    scene_dir = write_sample("chair", tmp_path / "chair", n_train=24, n_test=1, size=192)
     scene = load_scene(scene_dir)
-    res = fit(scene, FitConfig(curves=24, superquadrics=0), progress=False, log=lambda m: None)
+    res = fit(scene, FitConfig(curves=24, superquadrics=0, size=192), progress=False, log=lambda m: None)
     p, r = edge_scores(res.strokes.curves.control_points, load_ground_truth(scene_dir)["feature_edges"],
                        0.02 * scene.frame.radius)
     assert p >= 0.8 and r >= 0.6, (p, r)
 
 
-@pytest.mark.slow
+@pytest.fixture(scope="module")
+def snowman16(tmp_path_factory) -> Path:
+    return write_sample("snowman", tmp_path_factory.mktemp("q") / "snowman", n_train=16, n_test=4, size=128)
+
+
 @pytest.mark.parametrize("m", [3, 4, 5])
-def test_quality_snowman_superquadrics(tmp_path, m):
-    scene_dir = write_sample("snowman", tmp_path / "snowman")
-    res = fit(load_scene(scene_dir), FitConfig(curves=0, superquadrics=m), progress=False, log=lambda m: None)
-    test = working_scene(load_scene(scene_dir, split="test"), 256)
+def test_quality_snowman_superquadrics(snowman16, m):
+    """A fixed number of superquadrics fitted to the silhouettes explains the held-out ones (measured IoU
+    0.94-0.96 at 16 views and 128 px)."""
+    res = fit(load_scene(snowman16), FitConfig(curves=0, superquadrics=m, size=128, sq_iterations=150),
+              progress=False, log=lambda m: None)
+    assert len(res.strokes.superquadrics) == m
+    test = working_scene(load_scene(snowman16, split="test"), 128)
     assert silhouette_iou(res.strokes.superquadrics, test.cameras, test.masks) >= 0.90
 
 
@@ -554,7 +579,7 @@ class TestTriangulation:
             triangulate_scene_points(scene, max_views=6, log=lambda m: None)
         scene.masks = None
         logs = []
-        fit(scene, FitConfig(curves=3, iterations=3, prune_curves=False, **QUICK), progress=False, log=logs.append)
+        fit(scene, quick(curves=3, iterations=3, prune_curves=False), progress=False, log=logs.append)
         assert any("bounding box" in m for m in logs)
 
 

@@ -248,6 +248,38 @@ def test_blender_addon_command_writes_the_shipped_file(tmp_path):
     compile(text, "imp.py", "exec")
 
 
+def _with_doodle() -> dict:
+    """The environment with this installation's ``doodle`` command first on the PATH (as the README's reader
+    has it), found beside the Python running the tests, as ``tests/test_readme.py`` finds it."""
+    import sys
+
+    doodle = Path(sys.executable).with_name("doodle")
+    assert doodle.exists() or shutil.which("doodle"), "the doodle command is not installed (pip install -e .)"
+    folder = str(doodle.parent) if doodle.exists() else str(Path(shutil.which("doodle")).parent)
+    return dict(os.environ, PATH=os.pathsep.join([folder, os.environ["PATH"]]))
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.skipif(shutil.which("blender") is None, reason="Blender is not installed")
+def test_the_readmes_blender_command_works_as_written(tmp_path):
+    """``blender -b --python doodle_import.py -- cow.doodleb --views 8 --save cow.blend``, from the folder the
+    files are in (relative paths, which Blender itself refuses to save to)."""
+    import re
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    command = next(ln for ln in readme.splitlines() if ln.startswith("blender -b --python doodle_import.py"))
+    argv = re.sub(r"\s+#.*$", "", command).split()
+    s = random_strokes(4, n_curves=5, n_sq=2)
+    write_strokes(tmp_path / argv[argv.index("--") + 1], s)
+    (tmp_path / "doodle_import.py").write_text(blender_addon_source())
+    save = argv[argv.index("--save") + 1]
+    # as from a shell in that folder (Blender reads relative paths against $PWD, which a shell keeps)
+    r = subprocess.run([*argv[:1], "--factory-startup", *argv[1:]], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=240, env={**_with_doodle(), "PWD": str(tmp_path)})
+    assert r.returncode == 0 and (tmp_path / save).is_file(), r.stdout[-1500:] + r.stderr[-1500:]
+    assert (tmp_path / save).stat().st_size > 1000
+
+
 CHECK = """
 import bpy, json, sys
 from bpy_extras.object_utils import world_to_camera_view
@@ -278,8 +310,6 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     """In the real Blender, headless: one Bézier curve per stroke whose control points equal the file's to
     1e-5, one mesh per superquadric, the hull's mesh (with the doodle command), and orbit cameras that see the curves where doodle's own cameras draw
     them (within 0.05 px at 200 × 100). A binary file is converted by the ``doodle`` command."""
-    if suffix == ".doodleb" and shutil.which("doodle") is None:
-        pytest.skip("the doodle command is not on the PATH")
     strokes.hull = _ball_hull()
     src = tmp_path / f"s{suffix}"
     write_strokes(src, strokes)
@@ -289,15 +319,14 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     script = tmp_path / "check.py"
     script.write_text(CHECK.replace("STROKES", repr(str(src))).replace("ADDON", repr(str(addon))))
     r = subprocess.run(["blender", "-b", "--factory-startup", "--python", str(script)], capture_output=True,
-                       text=True, timeout=240)
+                       text=True, timeout=240, env=_with_doodle())
     line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")), None)
     assert line is not None, r.stdout[-2000:] + r.stderr[-2000:]
     out = json.loads(line[len("RESULT "):])
     assert np.allclose(np.array(out["curves"]), strokes.curves.control_points, atol=1e-5)
     assert out["meshes"] == len(strokes.superquadrics)
-    if shutil.which("doodle") is not None:  # the hull is meshed by the doodle command, as export3d meshes it
-        v, f = hull_mesh(strokes.hull)
-        assert out["hull"] == [len(v), len(f)]
+    v, f = hull_mesh(strokes.hull)  # the hull is meshed by the doodle command, as export3d meshes it
+    assert out["hull"] == [len(v), len(f)]
     cams = orbit_cameras(strokes.frame, 4, 200, 100)
     for cam, seen in zip(cams, out["views"]):
         uv, _ = cam.project(strokes.curves.control_points[:, 0])
@@ -388,7 +417,7 @@ def test_blenders_gltf_importer_puts_the_strokes_back_in_the_scenes_frame(stroke
     r = subprocess.run(["blender", "-b", "--factory-startup", "--python", str(script)], capture_output=True,
                        text=True, timeout=240, env=env)
     if "NO-NUMPY" in r.stdout:
-        pytest.skip("Blender's Python has no numpy, which its glTF importer needs")
+        pytest.skip("numpy is not installed for Blender's Python, which its glTF importer needs (Debian: python3-numpy)")
     line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")), None)
     assert line is not None, r.stdout[-2000:] + r.stderr[-2000:]
     out = json.loads(line[len("RESULT "):])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -122,21 +124,21 @@ def test_print_is_dark_ink_on_the_box_and_the_renderer_draws_it():
     assert 0.2 < (np.abs(ratio - PRINT_INK) < 0.05).mean() < 0.5  # a third of the faces inked
 
 
-@pytest.mark.slow
 def test_the_printed_parcel_is_drawn_by_its_edges_not_its_print(tmp_path):
     """The parcel's box is printed with tape and its ball with gores, lines as strong as its edges and as
-    consistent across the views. Judged as structure, a quarter of the sketch's ink is print; judged as
+    consistent across the views. Judged as structure, a fifth of the sketch's ink is print; judged as
     texture, less (the print under the hull's roof over the top face stays), and more of the curves lie on
-    the box's edges."""
-    d = write_sample("parcel", tmp_path / "parcel", n_test=4)
+    the box's edges. (The same candidates without the smooth-face marks are what ``texture=False`` offers.)"""
+    d = write_sample("parcel", tmp_path / "parcel", n_train=24, n_test=4, size=192)
     scene, test, gt = load_scene(d), load_scene(d, split="test"), load_ground_truth(d)
     box, tol = gt["feature_edges"], 0.03 * scene.frame.radius
+    cand = find_candidates(scene, 192, contours=False)
     out = {}
     for texture in (False, True):
-        found = choose_curves(find_candidates(scene, 192, contours=False, texture=texture), 64, outline_curves=64)
+        found = choose_curves(cand if texture else replace(cand, smooth=None), 64, outline_curves=64)
         sketch = StrokeSet(scene.frame, CurveSet(found.control_points, normals=found.normals, contour=found.contour))
         features = found.control_points[found.contour == 0]
         out[texture] = ink_on_print(sketch, gt["primitives"], test.cameras), *edge_scores(features, box, tol)
     (ink0, p0, r0), (ink, p, r) = out[False], out[True]
-    assert ink0 > 0.2 and ink < 0.8 * ink0, (ink, ink0)  # 0.27 → 0.19 when measured
-    assert p > p0 + 0.1 and r > 0.85, (p, p0, r)  # 0.46 → 0.63 of the feature curves on an edge; 0.94 covered
+    assert ink0 > 0.2 and ink < 0.8 * ink0, (ink, ink0)  # 0.215 → 0.163 when measured (24 views at 192 px)
+    assert p > p0 + 0.1 and r > 0.85, (p, p0, r)  # 0.44 → 0.57 of the feature curves on an edge; 0.93 covered

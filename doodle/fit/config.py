@@ -318,10 +318,3 @@ def _problem(kind: Any, limits: tuple[float, float] | None, value: Any) -> str |
         lo, hi = limits
         return f"must be in [{lo:g}, {hi:g}]"
     return None
-
-
-def config_from_options(options: dict[str, Any]) -> FitConfig:
-    """A config from a mapping of field names (unknown keys are ignored: the caller's other options)."""
-    names = {f.name for f in config_fields()}
-    return FitConfig(**{k: v for k, v in options.items() if k in names})
-

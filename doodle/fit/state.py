@@ -125,7 +125,6 @@ class FitState:
     checkpointer: Callable[[str, int], None] | None = None
     """Writes a checkpoint from within a stage (its name, the step of its gradient stage)."""
     done: list[str] = field(default_factory=list)
-    stage_seconds: dict[str, float] = field(default_factory=dict)
     started: float = field(default_factory=time.perf_counter)
 
     @cached_property

@@ -5,7 +5,6 @@ Arrays are numpy float64; the fitting core turns them into torch tensors (see ``
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -183,8 +182,3 @@ class StrokeSet:
             c = np.asarray(self.frame.center, dtype=float)
             return c.copy(), c.copy()
         return allp.min(axis=0), allp.max(axis=0)
-
-
-def orbit_distance_for(radius: float, fov_deg: float, margin: float = 1.05) -> float:
-    """Distance at which a sphere of ``radius`` just fits a ``fov_deg`` view (with ``margin``)."""
-    return margin * radius / math.sin(math.radians(fov_deg) / 2)

@@ -246,9 +246,11 @@ def _main(argv):
     ap.add_argument("--no-hull", dest="hull", action="store_false", help="leave out the hull's mesh")
     ap.add_argument("--save", help="write the scene to this .blend file")
     args = ap.parse_args(argv)
-    import_strokes(args.strokes, args.views, args.bevel, hull=args.hull)
+    # Paths as the user typed them, from the folder Blender was started in: Blender refuses to save to a
+    # relative path ("cannot save blend file, path ... is not writable"), and reads its own // as the .blend's
+    import_strokes(os.path.abspath(args.strokes), args.views, args.bevel, hull=args.hull)
     if args.save:
-        bpy.ops.wm.save_as_mainfile(filepath=args.save)
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save))
 
 
 if __name__ == "__main__":

@@ -22,43 +22,25 @@ def farthest_points(points: np.ndarray, k: int, rng: np.random.Generator) -> np.
     return points[chosen]
 
 
-def visual_hull(scene: Scene, resolution: int = 64, slack_px: int = 1) -> tuple[np.ndarray, np.ndarray, float]:
-    """Voxels inside every mask (each mask grown by ``slack_px``), within the scene's bounding sphere.
+def hull_points(grid, occupied: np.ndarray, max_voxels: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """``(interior (P, 3), surface (S, 3))`` voxel centres of a carved hull (``occupied`` on ``grid``, see
+    :mod:`doodle.fit.volume.carve`) brought to at most ``max_voxels`` a side: where the gradient path's curves
+    and superquadrics start."""
+    from ..volume.carve import coarsened
 
-    Returns:
-        ``(interior centres (P, 3), surface centres (S, 3), voxel size)``. A view carves only the voxels it
-        sees; voxels seen by fewer than 30 % of the views are dropped (nothing decides about them).
-    """
-    if scene.masks is None:
-        raise ValueError("the scene has no masks")
-    f = scene.frame
-    r = f.radius * 1.3
-    g = (np.arange(resolution) + 0.5) / resolution * 2 * r - r
-    pts = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3) + f.center
-    inside = np.linalg.norm(pts - f.center, axis=1) <= 1.15 * f.radius
-    seen_by = np.zeros(len(pts), int)
-    for cam, mask in zip(scene.cameras, scene.masks):
-        grown = ndimage.binary_dilation(mask, iterations=slack_px) if slack_px else mask
-        uv, z = cam.project(pts)
-        u, v = np.floor(uv[:, 0]).astype(int), np.floor(uv[:, 1]).astype(int)
-        seen = (z > 0) & (u >= 0) & (v >= 0) & (u < cam.width) & (v < cam.height)
-        keep = np.ones(len(pts), bool)
-        keep[seen] = grown[v[seen], u[seen]]
-        inside &= keep
-        seen_by += seen
-    inside &= seen_by >= max(2, 0.3 * len(scene.cameras))
-    vol = inside.reshape((resolution,) * 3)
-    surface = vol & ~ndimage.binary_erosion(vol)
-    return pts[inside], pts[surface.ravel()], 2 * r / resolution
+    g, occ = coarsened(grid, occupied, max_voxels)
+    surface = occ & ~ndimage.binary_erosion(occ)
+    return g.centres(np.argwhere(occ)), g.centres(np.argwhere(surface))
 
 
-def initial_points(scene: Scene, method: str, rng: np.random.Generator,
-                   log=lambda msg: None) -> tuple[np.ndarray, np.ndarray, str]:
+def initial_points(scene: Scene, method: str, rng: np.random.Generator, log=lambda msg: None,
+                   carving: tuple | None = None) -> tuple[np.ndarray, np.ndarray, str]:
     """Sample locations for initial strokes: ``(surface-like points, interior points, method used)``.
 
-    ``auto`` takes SfM points when the scene has at least 50, else the visual hull when it has masks, else
-    points triangulated with the known poses, else random points in the bounding box. ``points`` on a scene
-    without SfM points triangulates them (pycolmap, known poses).
+    ``auto`` takes SfM points when the scene has at least 50, else the visual hull (``carving``, the fit's
+    ``(grid, occupied)``) when there is one, else points triangulated with the known poses, else random
+    points in the bounding box. ``points`` on a scene without SfM points triangulates them (pycolmap, known
+    poses).
     """
     from ...errors import SceneError
     from ...scenes.triangulate import triangulate_scene_points
@@ -66,7 +48,7 @@ def initial_points(scene: Scene, method: str, rng: np.random.Generator,
     if method == "auto":
         if scene.points is not None and len(scene.points) >= 50:
             method = "points"
-        elif scene.masks is not None:
+        elif carving is not None:
             method = "hull"
         else:
             try:
@@ -82,8 +64,8 @@ def initial_points(scene: Scene, method: str, rng: np.random.Generator,
         pts = scene.points[d <= 1.2 * scene.frame.radius]
         pts = pts if len(pts) >= 10 else scene.points
         return pts, pts, "points"
-    if method == "hull":
-        interior, surface, _ = visual_hull(scene)
+    if method == "hull" and carving is not None:
+        interior, surface = hull_points(*carving)
         if len(interior) >= 10:
             return surface, interior, "hull"
         method = "bbox"  # the masks disagree (bad poses or masks): fall back

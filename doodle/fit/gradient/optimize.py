@@ -7,7 +7,7 @@ import copy
 import math
 import sys
 import time
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Callable
 
 import torch
@@ -25,7 +25,6 @@ class StageState:
     best: dict | None = None
     best_loss: float = float("inf")
     ema: float | None = None
-    history: list[dict[str, float]] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """Plain types and tensors only (checkpoints are read with ``weights_only``)."""
@@ -86,7 +85,6 @@ def run_stage(
             values = {k: float(v.detach()) for k, v in terms.items()}
             state.ema = values["total"] if state.ema is None else 0.95 * state.ema + 0.05 * values["total"]
             if state.step % 10 == 0 or state.step == iterations:
-                state.history.append({"step": state.step, **values})
                 if state.ema < state.best_loss and state.step >= min(50, iterations // 2):
                     state.best_loss = state.ema
                     state.best = copy.deepcopy(module.state_dict())

@@ -57,7 +57,8 @@ def run(state: FitState) -> None:
 def _start_points(state: FitState) -> None:
     """The gradient path's start: short curves at farthest points of the SfM points, the hull or the box."""
     cfg = state.config
-    surface, interior, method = initial_points(state.work, cfg.init, state.rng, state.say)
+    carving = None if state.carving is None else (state.carving.grid, state.carving.occupied)
+    surface, interior, method = initial_points(state.work, cfg.init, state.rng, state.say, carving)
     state.say(f"initialisation: {dict(points='SfM points', hull='visual hull', bbox='random in the bounding box')[method]}"
               f" ({len(surface)} candidate points)")
     n = max(cfg.max_curves, 1)

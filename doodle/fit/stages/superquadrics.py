@@ -45,7 +45,7 @@ def run(state: FitState) -> None:
     if plan.discover and mode in ("grow", "fixed"):
         from ..volume.hull import thick_volume
 
-        volume = thick_volume(state.work, cfg.thin)
+        volume = thick_volume(state.work, state.carving.grid, state.carving.occupied, cfg.thin)
         interior, sq_scene = volume.interior, replace(state.work, masks=volume.masks)
         say(f"superquadrics: {volume.thin_share:.0%} of the mask pixels are thin parts, left to curves")
         if len(interior) < 10:

@@ -1,8 +1,8 @@
 """Stage 2, volume: carve the visual hull once from the masks (:mod:`doodle.fit.volume.carve`), at the evidence
 size, and take from it what the file and the later stages need: the hull whose outline ``--outline hull``
-draws and the occluder that hides what lies behind the object's bulk. Discovery votes on this carving's grid,
-the abstraction fits superquadrics to it, the gradient path starts inside it. Without masks there is no
-volume (and nothing to do)."""
+draws and the occluder that hides what lies behind the object's bulk (on a coarser grid). Discovery votes on
+this carving's grid, the abstraction fits superquadrics to it, the silhouette fit takes its thick part, the
+gradient path starts inside it. Without masks there is no volume (and nothing to do)."""
 
 from __future__ import annotations
 
@@ -24,6 +24,6 @@ def run(state: FitState) -> None:
             state.shared["carving"] = carving
         state.carving = carving
     if cfg.use_occluder and state.occluder is None:
-        state.occluder = hull_occluder(state.work, occluder_voxels(cfg.size))
+        state.occluder = hull_occluder(state.carving.grid, state.carving.occupied, occluder_voxels(cfg.size))
     if cfg.outline_hull and state.hull is None:
         state.hull = outline_hull(state.carving.grid, state.carving.occupied)

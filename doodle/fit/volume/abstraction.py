@@ -35,6 +35,7 @@ from scipy import ndimage
 from ...strokes.model import SuperquadricSet
 from ...strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
 from ..gradient.params import SuperquadricParams
+from .carve import coarsen
 
 #: Voxels along the longest side of the grid the superquadrics are fitted on.
 WORK_VOXELS = 96
@@ -88,19 +89,6 @@ def thick_part(occupied: np.ndarray, radius: int) -> np.ndarray:
         if (ndimage.binary_dilation(piece) & kept[near]).any() or depth[near][piece].max() >= 0.5 * r:
             opened[near] |= piece
     return opened
-
-
-def coarsen(occupied: np.ndarray, max_voxels: int) -> tuple[np.ndarray, int]:
-    """``occupied`` on a grid ``k`` times coarser (blocks at least half full), ``k`` the smallest factor that
-    brings the longest side to ``max_voxels`` or fewer. Block ``(i, j, k)``'s centre is fine voxel
-    ``k·(i, j, k) + (k − 1)/2``."""
-    k = max(1, int(np.ceil(max(occupied.shape) / max_voxels)))
-    if k == 1:
-        return occupied.copy(), 1
-    pad = [(0, (-s) % k) for s in occupied.shape]
-    a = np.pad(occupied, pad).astype(np.float32)
-    X, Y, Z = (s // k for s in a.shape)
-    return a.reshape(X, k, Y, k, Z, k).mean(axis=(1, 3, 5)) >= 0.5, k
 
 
 def split_parts(thick: np.ndarray, h: float = 0.1) -> np.ndarray:

@@ -179,3 +179,23 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
         coarse = (split[:, None, :] + offsets[None]).reshape(-1, 3)
         size = half
     return grid, occupied
+
+
+def coarsen(occupied: np.ndarray, max_voxels: int) -> tuple[np.ndarray, int]:
+    """``occupied`` on a grid ``k`` times coarser (blocks at least half full), ``k`` the smallest factor that
+    brings the longest side to ``max_voxels`` or fewer. Block ``(i, j, k)``'s centre is fine voxel
+    ``k·(i, j, k) + (k − 1)/2``."""
+    k = max(1, int(np.ceil(max(occupied.shape) / max_voxels)))
+    if k == 1:
+        return occupied.copy(), 1
+    pad = [(0, (-s) % k) for s in occupied.shape]
+    a = np.pad(occupied, pad).astype(np.float32)
+    X, Y, Z = (s // k for s in a.shape)
+    return a.reshape(X, k, Y, k, Z, k).mean(axis=(1, 3, 5)) >= 0.5, k
+
+
+def coarsened(grid: VoxelGrid, occupied: np.ndarray, max_voxels: int) -> tuple[VoxelGrid, np.ndarray]:
+    """The carving on a grid ``k`` times coarser (:func:`coarsen`) with at most ``max_voxels`` along its
+    longest side: the occluder's, the thick part's and the gradient path's start points' grid."""
+    occ, k = coarsen(occupied, max_voxels)
+    return VoxelGrid(grid.centres(np.full(3, (k - 1) / 2)), grid.voxel * k, occ.shape, grid.axes), occ

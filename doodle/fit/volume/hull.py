@@ -18,7 +18,7 @@ from scipy import ndimage
 
 from ...scenes import Scene
 from ...strokes.model import Voxels
-from .carve import VoxelGrid, carve_hull, project_points
+from .carve import VoxelGrid, coarsened, project_points
 from .abstraction import thick_part
 
 
@@ -32,9 +32,11 @@ class Volume:
     """Share of the mask pixels (over the views) that belong to thin parts."""
 
 
-def thick_volume(scene: Scene, thin: float = 0.06, max_voxels: int = 96) -> Volume:
-    """Open the hull by ``thin`` × the hull box's diagonal and project it into the views of ``scene``."""
-    grid, occupied = carve_hull(scene, max_voxels)
+def thick_volume(scene: Scene, grid: VoxelGrid, occupied: np.ndarray, thin: float = 0.06, max_voxels: int = 96
+                 ) -> Volume:
+    """Open the carving (``occupied`` on ``grid``, brought to at most ``max_voxels`` a side) by ``thin`` × its box's
+    diagonal and project it into the views of ``scene``."""
+    grid, occupied = coarsened(grid, occupied, max_voxels)
     size = grid.voxel * float(np.linalg.norm(occupied.shape))
     r = max(1, int(round(0.5 * thin * size / grid.voxel)))
     opened = thick_part(occupied, r)
@@ -63,11 +65,11 @@ def occluder_voxels(size: int) -> int:
     return int(min(OCCLUDER_VOXELS, max(16, round(size * 3 / 8))))
 
 
-def hull_occluder(scene: Scene, max_voxels: int = OCCLUDER_VOXELS) -> Voxels:
-    """The visual hull carved from the scene's masks on a coarse grid, as the stroke set's occluder: it hides
-    the curves and outlines behind the object's bulk where no superquadric stands (a box's back edges seen
-    through its front, a tripod's far leg behind its microphone)."""
-    grid, occupied = carve_hull(scene, max_voxels)
+def hull_occluder(grid: VoxelGrid, occupied: np.ndarray, max_voxels: int = OCCLUDER_VOXELS) -> Voxels:
+    """The carving (``occupied`` on ``grid``) on a coarse grid, as the stroke set's occluder: it hides the curves
+    and outlines behind the object's bulk where no superquadric stands (a box's back edges seen through its
+    front, a tripod's far leg behind its microphone)."""
+    grid, occupied = coarsened(grid, occupied, max_voxels)
     # A voxel in: the hull fills concavities no view looks into (beside Lego's tracks, on its plate), where
     # visible edges lie inside it; shrunk, it hides them less (Lego held-out recall 0.77 → 0.80).
     return grid.volume(ndimage.binary_erosion(occupied))

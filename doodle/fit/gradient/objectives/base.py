@@ -1,5 +1,6 @@
-"""The objective interface. Objectives see strokes only through this API, so the weight-free default and
-the paper's perceptual objective share the stroke model, cameras and optimiser."""
+"""The objective interface of the gradient stages. An objective sees strokes only through this API, so any
+objective registered beside the weight-free ``edges`` (the paper's perceptual one, say, with weights from a
+local path) shares the stroke model, the cameras and the optimiser."""
 
 from __future__ import annotations
 
