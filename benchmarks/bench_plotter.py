@@ -72,6 +72,23 @@ def vpype_reads(files: list[Path]) -> str:
     return f"vpype reads {sum(layers)}/{len(files)} files"
 
 
+def written_paths(files: list[Path]) -> tuple[float, int, float]:
+    """From the plotter SVG files as written: paths a view, paths under 3 px, and the shortest path (px; the
+    files are in millimetres, their metadata gives the millimetres per pixel)."""
+    import json
+
+    from svgelements import Path as SvgPath
+
+    lengths, views = [], 0
+    for f in files:
+        text = f.read_text(encoding="utf-8")
+        mm_per_px = json.loads(re.search(r"<metadata[^>]*>(.*?)</metadata>", text, re.S).group(1))["plotter"]["mm_per_px"]
+        lengths += [SvgPath(d).length() / mm_per_px for d in re.findall(r' d="([^"]+)"', text)]
+        views += 1
+    lengths = np.array(lengths)
+    return len(lengths) / max(views, 1), int((lengths < 3.0).sum()), float(lengths.min(initial=np.inf))
+
+
 def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="doodle-bench-plotter-"))
     if len(sys.argv) == 3:
@@ -97,8 +114,10 @@ def main() -> None:
     print(f"{stroke_file.name} on {len(cams)} held-out views at {SIZE} px")
     print(f"plain SVG:   {sub:.1f} subpaths a view, {short:.1f} under 3 px, pen-up {travel_plain:.0f} px a view, "
           f"F {f['plain']['f_score']:.3f}")
-    print(f"plotter SVG: {paths:.1f} paths a view, none under 3 px, pen-up {travel_plot:.0f} px a view, "
-          f"F {f['plotter']['f_score']:.3f}")
+    per_view, under, shortest = written_paths(natural_sorted((tmp / "plotter").glob("*.svg")))
+    assert abs(per_view - paths) < 1e-9, (per_view, paths)  # the files hold what the plotter's order gave
+    print(f"plotter SVG: {per_view:.1f} paths a view, {under} under 3 px (the shortest {shortest:.1f} px), "
+          f"pen-up {travel_plot:.0f} px a view, F {f['plotter']['f_score']:.3f}")
     print(vpype_reads(natural_sorted((tmp / "plotter").glob("*.svg"))))
 
 

@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 from PIL import Image
 
-from .atomic import atomic_path
+from .atomic import atomic_path, check_writable
 from .cameras import orbit_cameras
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many
@@ -109,19 +109,13 @@ def animate_many(strokes: StrokeSet, outputs: dict[str, Path], opt: AnimateOptio
     for fmt, path in outputs.items():
         if fmt not in FORMATS:
             raise DoodleError(f"{path}: unknown animation format {fmt!r} (use .gif, .png/.apng, .mp4 or .svg)")
-        if path.exists() and path.is_dir():
-            raise DoodleError(f"{path}: is a folder")
-        if not os.access(path.parent if path.parent.exists() else Path("."), os.W_OK):
-            raise DoodleError(f"{path.parent}: not writable")
+        check_writable(path)
     if "mp4" in outputs:
         try:
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
             raise DoodleError("--mp4 needs imageio-ffmpeg, which is not installed "
                               "(pip install 'doodle3d[video]')") from None
-    for path in outputs.values():
-        if not path.parent.is_dir():
-            raise DoodleError(f"{path}: folder {path.parent} does not exist")
     svgs, images = render_frames(strokes, opt, progress)
     duration_ms = 1000.0 / opt.fps
     with contextlib.ExitStack() as stack:

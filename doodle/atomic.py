@@ -26,13 +26,9 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     Raises:
         DoodleError: when ``path``'s folder does not exist or ``path`` is a folder.
     """
-    from .errors import DoodleError
 
     path = Path(path)
-    if not path.parent.is_dir():
-        raise DoodleError(f"{path}: folder {path.parent} does not exist")
-    if path.is_dir():
-        raise DoodleError(f"{path}: is a folder")
+    check_folder(path)
     # Hidden, beside the target (same file system, so the rename is atomic), and with the target's suffix:
     # some writers (ffmpeg) pick the format from it.
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.tmp-", suffix=path.suffix, dir=path.parent)
@@ -50,6 +46,56 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+
+
+def check_folder(path: str | os.PathLike) -> None:
+    """Raise :class:`~doodle.errors.DoodleError` naming ``path`` when it cannot be written as a file: its folder
+    is missing or is a file, or ``path`` is a folder."""
+    from .errors import DoodleError
+
+    path = Path(path)
+    _no_file_above(path)
+    if not path.parent.is_dir():
+        raise DoodleError(f"{path}: folder {path.parent} does not exist")
+    if path.is_dir():
+        raise DoodleError(f"{path}: is a folder")
+
+
+def _no_file_above(path: Path) -> None:
+    """Refuse ``path`` when the nearest of its ancestors that exists is a file (one line naming both)."""
+    from .errors import DoodleError
+
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise DoodleError(f"{path}: {parent} is a file, not a folder")
+            return
+
+
+def check_out_folder(path: str | os.PathLike) -> None:
+    """Raise :class:`~doodle.errors.DoodleError` when ``path`` cannot become an output folder: it is a file, or a
+    file stands where one of its folders would be."""
+    from .errors import DoodleError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise DoodleError(f"{path}: exists and is not a folder")
+    _no_file_above(path)
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Fail now, in one line naming ``path``, when a file cannot be written there (see :func:`check_folder`; a
+    read-only folder or file system): before minutes of work whose result could not be saved."""
+    from .errors import DoodleError
+
+    path = Path(path)
+    check_folder(path)
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.stem}.probe-", dir=path.parent)
+    except OSError as exc:
+        raise DoodleError(f"{path}: cannot write in {path.parent} ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 def write_bytes(path: str | os.PathLike, data: bytes) -> None:
@@ -115,8 +161,7 @@ def atomic_folder(path: str | os.PathLike, keep_others: bool = True) -> Iterator
     from .errors import DoodleError
 
     path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise DoodleError(f"{path}: exists and is not a folder")
+    check_out_folder(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     lock_fd = os.open(path.parent / f".{path.name}.doodle-lock", os.O_CREAT | os.O_RDWR, 0o644)
     try:

@@ -585,6 +585,7 @@ def fit(scene_dir: Path, out_path: Path, split: str, masks: str, resume: bool, *
     Ctrl-C stops early and still writes what the finished stages give (exit code 130); --resume goes on from
     the checkpoint written after every stage.
     """
+    from .atomic import check_writable
     from .fit import FitConfig
     from .fit import fit as fit_scene
     from .scenes import load_scene_at_size
@@ -593,6 +594,7 @@ def fit(scene_dir: Path, out_path: Path, split: str, masks: str, resume: bool, *
 
     cfg = FitConfig(**options)
     cfg.check()
+    check_writable(out_path)  # before minutes of fitting
     scene = load_scene_at_size(scene_dir, split, cfg.load_size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
     scene = with_masks(scene, masks, Path(scene_dir) / "doodle-masks", log=_log)

@@ -51,3 +51,19 @@ def render_scene(primitives, n: int = 12, size: int = 96, radius: float = 1.3):
     alpha = [r[..., 3:].astype(float) / 255 for r in rgba]
     images = [(r[..., :3] * a + 255 * (1 - a)).astype(np.uint8) for r, a in zip(rgba, alpha)]
     return Scene(cams, images, SceneFrame(radius=radius), [r[..., 3] > 127 for r in rgba], source="rendered")
+
+
+def in_a_fresh_process(code: str) -> bytes:
+    """Run Python ``code`` in a new interpreter (a random hash seed, nothing imported before it, tests/ on its
+    path) and return what it wrote to stdout: for checking that a result does not depend on the process."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = str(Path(__file__).resolve().parent)
+    env = {**os.environ, "PYTHONHASHSEED": "random",
+           "PYTHONPATH": os.pathsep.join([here, os.environ.get("PYTHONPATH", "")])}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, env=env, timeout=240)
+    assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
+    return r.stdout

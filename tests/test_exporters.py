@@ -11,7 +11,7 @@ from scipy import ndimage
 from doodle.cameras import Camera, look_at, orbit_cameras
 from doodle.cli import cli
 from doodle.errors import DoodleError
-from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg, union_mask
+from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg
 from doodle.exporters.drawing import on_screen_size, piece_length
 from doodle.exporters.project import depth_intervals, project_curve
 from doodle.exporters.visibility import segments_blocked
@@ -297,9 +297,16 @@ class TestSvgDocument:
         assert doc.viewbox.width == 300 and len(paths) > 4
 
     def test_deterministic_bytes(self):
+        """The same strokes and camera give the same SVG bytes, in this process and in a fresh one."""
+        from helpers import in_a_fresh_process
+
+        code = ("import sys; from helpers import random_strokes; from doodle.cameras import orbit_cameras; "
+                "from doodle.exporters import draw, to_svg; s = random_strokes(n_curves=6, n_sq=3); "
+                "sys.stdout.write(to_svg(draw(s, orbit_cameras(s.frame, 3, width=256)[1])))")
         s = random_strokes(n_curves=6, n_sq=3)
-        cam = orbit_cameras(s.frame, 3, width=256)[1]
-        assert to_svg(draw(s, cam)) == to_svg(draw(random_strokes(n_curves=6, n_sq=3), cam))
+        here = to_svg(draw(s, orbit_cameras(s.frame, 3, width=256)[1]))
+        assert here == to_svg(draw(random_strokes(n_curves=6, n_sq=3), orbit_cameras(s.frame, 3, width=256)[1]))
+        assert here.encode() == in_a_fresh_process(code)
 
     @pytest.mark.parametrize("hidden", ["hide", "dash"])
     def test_batch_of_views_draws_what_each_view_draws(self, hidden):

@@ -126,9 +126,15 @@ class TestBinary:
             with pytest.raises(StrokeFileError):
                 decode(bad)
 
-    def test_round_trip_within_1e_3_radius(self):
-        s = random_strokes(seed=3, radius=2.0)
-        _assert_close(s, decode(encode(s)), 1e-3 * 2.0)
+    @pytest.mark.parametrize("seed, radius", [(3, 2.0), (5, 0.01), (7, 300.0)])
+    def test_round_trip_within_the_promised_5e_4_of_the_radius(self, seed, radius):
+        """Positions and scales within :data:`~doodle.strokes.binary.REL_TOLERANCE` (5·10⁻⁴) of the radius, as
+        the format promises, whatever the scene's scale."""
+        from doodle.strokes.binary import REL_TOLERANCE
+
+        assert REL_TOLERANCE == 5e-4
+        s = random_strokes(seed=seed, radius=radius)
+        _assert_close(s, decode(encode(s)), REL_TOLERANCE * radius)
 
     def test_suffix_selects_binary(self, tmp_path):
         write_strokes(tmp_path / "a.doodleb", random_strokes())

@@ -102,7 +102,7 @@ def test_obj_free_form_blocks_are_skipped_whole_by_readers_that_skip_them(stroke
 
 def test_obj_loads_in_open3d(strokes, tmp_path):
     """Open3D reads OBJ through Assimp: the superquadric meshes come in whole, the free-form blocks skipped."""
-    o3d = pytest.importorskip("open3d")
+    o3d = pytest.importorskip("open3d", reason="needs Open3D, an optional extra (pip install -e '.[open3d]')")
     (tmp_path / "s.obj").write_text(to_obj(strokes))
     mesh = o3d.io.read_triangle_mesh(str(tmp_path / "s.obj"))
     per_sq = superquadric_mesh(strokes.superquadrics, 0)

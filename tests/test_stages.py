@@ -77,6 +77,19 @@ def test_ctrl_c_in_each_stage_writes_what_the_finished_stages_give_and_resume_fi
     assert _bytes(out) == uninterrupted and not (tmp_path / "s.doodleb.ckpt").exists()
 
 
+def test_a_fit_is_the_same_bytes_in_another_process(snowman_dir, tmp_path, uninterrupted):
+    """``doodle fit`` run as its own process (a fresh interpreter, a random hash seed) writes the file the
+    in-process fit wrote: nothing in a fit depends on the process."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "s.doodleb"
+    r = subprocess.run([sys.executable, "-m", "doodle", "fit", str(snowman_dir), "-o", str(out), *SMALL],
+                       capture_output=True, text=True, timeout=240, env={**os.environ, "PYTHONHASHSEED": "random"})
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert _bytes(out) == uninterrupted
+
+
 def test_a_second_ctrl_c_stops_at_once_and_writes_nothing(snowman_dir, tmp_path, monkeypatch):
     """While the volume is carved a first Ctrl-C is held; a second one stops the fit there, with nothing to
     write yet: the output file stays as it was."""

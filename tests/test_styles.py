@@ -1,3 +1,4 @@
+import io
 import json
 import re
 
@@ -10,7 +11,7 @@ from doodle.animate import AnimateOptions, animate, animate_many, render_frames
 from doodle.cameras import orbit_cameras
 from doodle.cli import cli
 from doodle.errors import DoodleError
-from doodle.exporters import DrawOptions, draw, to_svg
+from doodle.exporters import DrawOptions, draw, svg_to_png, to_svg
 from doodle.strokes import write_strokes
 from doodle.styles import builtin_names, load_style, style_from_dict
 from doodle.exporters.style_preview import sample_strokes
@@ -105,8 +106,14 @@ class TestStyledSvg:
         assert 'inkscape:label="hidden"' in _svg(st) and "stroke-dasharray" in _svg(st)
 
     def test_deterministic_and_seeded_per_stroke(self):
+        """A sketchy drawing is the same bytes in another process (nothing hangs on hash order or global
+        state), and its wobble follows the style's seed."""
+        from helpers import in_a_fresh_process
+
         st = load_style("sketchy")
-        assert _svg(st) == _svg(st)
+        there = in_a_fresh_process("import sys, test_styles as t; from doodle.styles import load_style; "
+                                   "sys.stdout.write(t._svg(load_style('sketchy')))")
+        assert _svg(st).encode() == there
         other = style_from_dict({**{"line": {"passes": 2, "jitter": 2.4, "overshoot": 9.0}}, "seed": 7})
         assert _svg(other) != _svg(style_from_dict({"line": {"passes": 2, "jitter": 2.4, "overshoot": 9.0}}))
 
@@ -137,15 +144,31 @@ class TestAnimation:
             assert im.n_frames == 6 and im.size == (96, 96) and im.info.get("loop") == 0
             assert im.info["duration"] == 100
 
+    @staticmethod
+    def _after_the_last_is_the_first(strokes, camera_at, n: int) -> bool:
+        """Whether the frame after the last of ``n`` (camera ``camera_at(n)``) is the first again: the same pose
+        and the same picture."""
+        first, after = camera_at(0), camera_at(n)
+        if not (np.allclose(first.R, after.R, atol=1e-9) and np.allclose(first.t, after.t, atol=1e-9)):
+            return False
+        picture = lambda cam: np.asarray(Image.open(io.BytesIO(svg_to_png(to_svg(draw(strokes, cam))))))  # noqa: E731
+        return bool((picture(first) == picture(after)).all())
+
     def test_seamless_loop_with_bob(self):
-        s = sample_strokes()
-        _, frames = render_frames(s, AnimateOptions(frames=8, size=64, bob_deg=10))
-        _, frames9 = render_frames(s, AnimateOptions(frames=9, size=64, bob_deg=10))
-        # the frame after the last one would be frame 0 again: the camera path is periodic
-        cams = orbit_cameras(s.frame, 8, 64, 64, elevation_bob_deg=10)
-        nxt = orbit_cameras(s.frame, 8, 64, 64, elevation_bob_deg=10)[0]
-        assert np.allclose(cams[0].center, nxt.center)
-        assert len(frames) == 8 and len(frames9) == 9
+        """The turntable's frames are the orbit's cameras 0 .. n-1, and camera n, the frame after the last, is
+        frame 0 again (the camera and the drawing), bob included. A period off by a frame fails the check."""
+        from doodle.cameras import orbit_camera
+
+        s, n = sample_strokes(), 8
+        svgs, frames = render_frames(s, AnimateOptions(frames=n, size=64, bob_deg=10))
+        camera_at = lambda i, views=n: orbit_camera(s.frame, i, views, 64, 64, elevation_bob_deg=10)  # noqa: E731
+        assert len(frames) == n
+        for k in range(n):  # the frames are drawn from these cameras (each SVG records its camera)
+            cam = json.loads(re.search(r'<metadata id="doodle-metadata">(.*?)</metadata>', svgs[k]).group(1))["camera"]
+            assert np.allclose(cam["R"], camera_at(k).R, atol=1e-8) and np.allclose(cam["t"], camera_at(k).t, atol=1e-8)
+        assert self._after_the_last_is_the_first(s, camera_at, n)
+        assert not self._after_the_last_is_the_first(s, lambda i: camera_at(i, n + 1), n)  # a frame too many
+        assert not self._after_the_last_is_the_first(s, lambda i: camera_at(i, n - 1), n)  # one too few
 
     def test_same_stroke_same_jitter_across_frames_no_flicker(self):
         """Two renders of the same frame are identical, and consecutive frames differ only a little."""
@@ -230,16 +253,21 @@ class TestCli:
         assert r.exit_code == 2 and msg in r.output and r.output.strip().count("\n") == 0
         assert not out.exists()
 
-    def test_animate_unwritable(self, strokes_file, tmp_path):
-        ro = tmp_path / "ro"
-        ro.mkdir()
-        ro.chmod(0o500)
-        import os
-
-        if os.access(ro, os.W_OK):  # running as root: permissions are not enforced
-            pytest.skip("directory permissions not enforced for this user")
-        r = CliRunner().invoke(cli, ["animate", str(strokes_file), "--gif", str(ro / "a.gif"), "--frames", "2"])
-        assert r.exit_code == 2 and "not writable" in r.output
+    @pytest.mark.parametrize("command", ["animate", "export", "view", "fit"])
+    def test_an_output_that_cannot_be_written_is_one_line_and_writes_nothing(self, strokes_file, tmp_path, command):
+        """An output under a file instead of a folder fails for every user, root included (who ignores a
+        folder's permissions): one line naming the path, exit 2, before any work."""
+        blocker = tmp_path / "not-a-folder"
+        blocker.write_text("a file")
+        out = blocker / "out"
+        argv = {"animate": ["animate", str(strokes_file), "--gif", f"{out}.gif", "--frames", "2"],
+                "export": ["export", str(strokes_file), "-o", str(out), "--views", "2"],
+                "view": ["view", str(strokes_file), "-o", f"{out}.html", "--azimuths", "2", "--elevations", "0"],
+                "fit": ["fit", str(tmp_path / "no-scene"), "-o", f"{out}.doodle"]}[command]
+        r = CliRunner().invoke(cli, argv)
+        assert r.exit_code == 2 and r.output.startswith("Error: ") and r.output.strip().count("\n") == 0, r.output
+        assert f"{blocker} is a file, not a folder" in r.output
+        assert blocker.read_text() == "a file" and {p.name for p in tmp_path.iterdir()} == {"not-a-folder", "s.doodle"}
 
     def test_malformed_style_file(self, strokes_file, tmp_path):
         bad = tmp_path / "b.toml"

@@ -22,7 +22,6 @@ from click.testing import CliRunner
 from doodle.cli import cli
 from doodle.exporters import DrawOptions, draw, to_svg
 from doodle.exporters.drawing import LAYERS
-from doodle.exporters.svg import digits_for, path_data
 from doodle.exporters.viewer import ViewerOptions, leb128, pack_views, viewer_cameras, viewer_html
 from doodle.strokes import write_strokes
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..atomic import write_text
+from ..atomic import check_out_folder, write_text
 from ..errors import DoodleError
 from ..workers import cpu_count
 from .job import Task, fingerprint, read_record
@@ -119,8 +119,7 @@ def run_batch(manifest_path: str | os.PathLike, out_dir: str | os.PathLike, opti
     manifest = load_manifest(manifest_path)
     jobs, threads = plan(cpu_count(), opt.jobs, opt.threads, memory_bytes())
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise DoodleError(f"{out}: exists and is not a folder")
+    check_out_folder(out)
     if not out.parent.is_dir():
         raise DoodleError(f"{out}: folder {out.parent} does not exist")
     out.mkdir(exist_ok=True)

@@ -51,7 +51,8 @@ def orbit_cameras(
     elevation_deg: float | None = None,
     elevation_bob_deg: float = 0.0,
 ) -> list[Camera]:
-    """``views`` cameras evenly spaced in azimuth, looking at ``frame.center``.
+    """``views`` cameras evenly spaced in azimuth, looking at ``frame.center`` (:func:`orbit_camera` for
+    ``step = 0 .. views - 1``).
 
     View 0 sits at ``frame.camera.azimuth_deg``; the distance, field of view and elevation come from
     ``frame.camera`` unless overridden. ``elevation_bob_deg`` adds a seamless ``sin`` up-down motion over the
@@ -60,6 +61,16 @@ def orbit_cameras(
     Raises:
         ValueError: if ``views < 1`` or the camera would sit at the centre or on the ``up`` axis.
     """
+    return [orbit_camera(frame, i, views, width, height, projection, elevation_deg, elevation_bob_deg)
+            for i in range(views)]
+
+
+def orbit_camera(frame: SceneFrame, step: int, views: int, width: int | None = None, height: int | None = None,
+                 projection: Projection = "perspective", elevation_deg: float | None = None,
+                 elevation_bob_deg: float = 0.0) -> Camera:
+    """The camera ``step`` of an orbit of ``views`` (see :func:`orbit_cameras`). Any whole ``step`` is allowed: the
+    azimuth and the bob are periodic in it, so step ``views`` is step 0 again (up to rounding), which is what
+    makes a turntable loop seamlessly."""
     if views < 1:
         raise ValueError(f"views must be at least 1, got {views}")
     dc = frame.camera
@@ -67,19 +78,17 @@ def orbit_cameras(
     height = height or round(width * dc.height / dc.width)
     if dc.distance <= 0:
         raise ValueError("orbit distance must be positive")
-    if abs(elevation_deg if elevation_deg is not None else dc.elevation_deg) + abs(elevation_bob_deg) >= 90:
+    elevation = elevation_deg if elevation_deg is not None else dc.elevation_deg
+    if abs(elevation) + abs(elevation_bob_deg) >= 90:
         raise ValueError("elevation must stay strictly between -90 and 90 degrees")
     # Square pixels: the field of view applies to the larger image side.
     f = 0.5 * max(width, height) / math.tan(math.radians(dc.fov_deg) / 2)
-    cams = []
-    for i in range(views):
-        phase = 2 * math.pi * i / views
-        el = (elevation_deg if elevation_deg is not None else dc.elevation_deg) + elevation_bob_deg * math.sin(phase)
-        az = dc.azimuth_deg + 360.0 * i / views
-        eye = orbit_position(frame, az, el, dc.distance)
-        R, t = look_at(eye, frame.center, frame.up)
-        fx = f if projection == "perspective" else f / dc.distance
-        if projection == "orthographic":
-            t = t.copy()  # keep the eye at the orbit distance so depths stay positive
-        cams.append(Camera(fx, fx, width / 2, height / 2, width, height, R, t, projection, name=f"orbit_{i:03d}"))
-    return cams
+    phase = 2 * math.pi * step / views
+    el = elevation + elevation_bob_deg * math.sin(phase)
+    az = dc.azimuth_deg + 360.0 * step / views
+    eye = orbit_position(frame, az, el, dc.distance)
+    R, t = look_at(eye, frame.center, frame.up)
+    fx = f if projection == "perspective" else f / dc.distance
+    if projection == "orthographic":
+        t = t.copy()  # keep the eye at the orbit distance so depths stay positive
+    return Camera(fx, fx, width / 2, height / 2, width, height, R, t, projection, name=f"orbit_{step % views:03d}")

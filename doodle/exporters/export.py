@@ -11,7 +11,7 @@ from pathlib import Path
 
 from PIL import Image
 
-from ..atomic import atomic_folder, atomic_path
+from ..atomic import atomic_folder, atomic_path, check_writable
 from ..cameras import Camera, Projection, orbit_cameras, output_size
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
@@ -107,9 +107,7 @@ def export_views(strokes: StrokeSet, cameras: list[Camera], out_dir: str | os.Pa
     out = Path(out_dir)
     views = opt.svg or opt.png or opt.pdf
     if opt.sheet is not None:
-        sheet_dir = Path(opt.sheet).parent
-        if not sheet_dir.is_dir():
-            raise DoodleError(f"{opt.sheet}: folder {sheet_dir} does not exist")
+        check_writable(opt.sheet)
     written: list[Path] = []
     sheet_images: list[Image.Image] = []
     job = partial(_render_views, strokes, opt)

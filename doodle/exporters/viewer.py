@@ -29,7 +29,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..atomic import write_text
+from ..atomic import check_writable, write_text
 from ..cameras import Camera, orbit_cameras
 from ..errors import DoodleError
 from ..strokes.model import StrokeSet
@@ -213,9 +213,6 @@ def write_viewer(strokes: StrokeSet, out: str | os.PathLike, options: ViewerOpti
                  progress: Callable[[int, int], None] | None = None) -> Path:
     """Write the viewer page to ``out`` atomically (an existing file is replaced only by a complete page)."""
     out = Path(out)
-    if out.is_dir():
-        raise DoodleError(f"{out}: is a folder")
-    if not out.parent.is_dir():
-        raise DoodleError(f"{out}: folder {out.parent} does not exist")
+    check_writable(out)
     write_text(out, viewer_html(strokes, options, source, progress))
     return out

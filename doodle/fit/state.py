@@ -286,7 +286,7 @@ def save_checkpoint(path: Path, payload: dict) -> bool:
         with atomic_path(path) as tmp:
             torch.save(payload, tmp)
         return True
-    except (OSError, RuntimeError) as exc:  # torch reports a full disk as RuntimeError
+    except (OSError, RuntimeError, DoodleError) as exc:  # torch reports a full disk as RuntimeError
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         warnings.warn(f"{path}: checkpoint not written ({reason}); fitting goes on", RuntimeWarning, stacklevel=2)
         return False

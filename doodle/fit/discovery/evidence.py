@@ -16,7 +16,7 @@ The hull comes from :mod:`doodle.fit.volume.carve` (carved once per fit).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
