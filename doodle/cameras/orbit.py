@@ -61,6 +61,8 @@ def orbit_cameras(
     Raises:
         ValueError: if ``views < 1`` or the camera would sit at the centre or on the ``up`` axis.
     """
+    if views < 1:
+        raise ValueError(f"views must be at least 1, got {views}")
     return [orbit_camera(frame, i, views, width, height, projection, elevation_deg, elevation_bob_deg)
             for i in range(views)]
 
