@@ -84,7 +84,11 @@ def cli() -> None:
 @click.option("--capture", is_flag=True,
               help="Write a phone-capture-like COLMAP project instead: JPEGs over a textured floor and wall, "
                    "landscape and portrait (some EXIF-rotated), lens distortion, no masks (--train photos).")
-def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool) -> None:
+@click.option("--floor", type=click.Choice(["planks", "carpet"]), default="planks", show_default=True,
+              help="With --capture: the floor the object stands on (carpet: a busy red carpet with more features "
+                   "than the object).")
+def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool,
+           floor: str) -> None:
     """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel, teapot, cow) as a NeRF-synthetic folder.
 
     The folder holds RGBA renders from the upper hemisphere, transforms_{train,test}.json and
@@ -94,8 +98,8 @@ def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force
     from .samples import write_capture, write_sample
 
     if capture:
-        out = write_capture(name, out_dir, n=n_train, size=size, force=force)
-        click.echo(f"wrote {name} as a phone capture: {n_train} photos, long side {size} px, to {out}")
+        out = write_capture(name, out_dir, n=n_train, size=size, force=force, floor=floor)
+        click.echo(f"wrote {name} as a phone capture on a {floor} floor: {n_train} photos, long side {size} px, to {out}")
         return
     out = write_sample(name, out_dir, n_train=n_train, n_test=n_test, size=size, force=force)
     click.echo(f"wrote {name}: {n_train} train + {n_test} test views at {size} px to {out}")

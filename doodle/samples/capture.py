@@ -1,7 +1,7 @@
 """A phone capture of a sample scene, with known truth: what a real capture brings, small enough for tests.
 
 ``write_capture("chair", out)`` writes a COLMAP project (``images/*.jpg``, ``sparse/0/*.txt``) of the scene
-standing on a textured floor, in front of a textured wall that differs from photo to photo (as a room
+standing on a textured floor (wooden planks, or a busy red carpet: ``floor="carpet"``), in front of a textured wall that differs from photo to photo (as a room
 behind an object does when one walks around it): landscape and portrait photos mixed, through a lens with
 radial distortion (COLMAP ``SIMPLE_RADIAL``), some portrait photos stored as landscape pixels with an EXIF
 rotation, SfM-like points on the object and on the floor, and no masks. ``true_masks/`` holds the exact
@@ -39,6 +39,35 @@ def _floor_colour(xy: np.ndarray) -> np.ndarray:
     return np.where(seam, 0.2, base * (0.85 + 0.15 * grain[:, None]))
 
 
+def _hash(i: np.ndarray, j: np.ndarray, salt: int) -> np.ndarray:
+    """A deterministic pseudo-random value in [0, 1) per integer cell ``(i, j)`` (a texture's, the same in every
+    photo)."""
+    h = (i.astype(np.int64) * 73856093) ^ (j.astype(np.int64) * 19349663) ^ (salt * 83492791)
+    h = (h ^ (h >> 13)) * 1274126177
+    return ((h ^ (h >> 16)) & 0xFFFF) / 65536.0
+
+
+def _carpet_colour(xy: np.ndarray) -> np.ndarray:
+    """A red, strongly textured carpet on the floor plane (world x, y → RGB in [0, 1]): a woven grain of 1 cm
+    tufts, each its own shade, under a pattern of medallions and borders; far more corners and blobs for a
+    feature detector than the object has (the capture the blowtorch on the carpet was)."""
+    tuft = np.floor(xy / 0.012)
+    grain = _hash(tuft[:, 0], tuft[:, 1], 1)
+    u, v = xy[:, 0] / 0.22, xy[:, 1] / 0.22
+    cell = np.stack([np.floor(u), np.floor(v)], 1)
+    fu, fv = u - cell[:, 0] - 0.5, v - cell[:, 1] - 0.5
+    diamond = np.abs(fu) + np.abs(fv)
+    motif = (np.abs(diamond - 0.32) < 0.06) | (diamond < 0.1) | (np.maximum(np.abs(fu), np.abs(fv)) > 0.46)
+    palette = np.array([[0.62, 0.10, 0.12], [0.85, 0.72, 0.35], [0.12, 0.16, 0.38], [0.95, 0.90, 0.80]])
+    accent = palette[1 + (_hash(cell[:, 0], cell[:, 1], 2) * 3).astype(int)]
+    base = np.where(motif[:, None], accent, palette[0])
+    return np.clip(base * (0.55 + 0.7 * grain[:, None]), 0, 1)
+
+
+FLOORS = {"planks": _floor_colour, "carpet": _carpet_colour}
+"""The floors a capture stands on: wooden planks, or a busy red carpet (more features than the object)."""
+
+
 def _wall(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
     """A blotchy wall texture, different per photo: ``(H, W, 3)`` in [0, 1]."""
     noise = ndimage.gaussian_filter(rng.random((*shape, 3)), sigma=(6, 6, 0))
@@ -65,7 +94,8 @@ def capture_cameras(n: int, size: int, portrait_every: int = 3) -> list[Camera]:
     return cams
 
 
-def _photo(prims, cam: Camera, k1: float, rng: np.random.Generator, ss: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def _photo(prims, cam: Camera, k1: float, rng: np.random.Generator, ss: int = 2, floor: str = "planks"
+           ) -> tuple[np.ndarray, np.ndarray]:
     """RGB ``uint8`` photo and object mask through a lens with radial distortion ``k1`` (COLMAP SIMPLE_RADIAL:
     distorted = undistorted · (1 + k1 r²) in normalised coordinates)."""
     H, W = cam.height * ss, cam.width * ss
@@ -83,7 +113,7 @@ def _photo(prims, cam: Camera, k1: float, rng: np.random.Generator, ss: int = 2)
     t_floor = (FLOOR_Z - o[:, 2]) / np.where(np.abs(d[:, 2]) > 1e-9, d[:, 2], -1e-9)
     on_floor = t_floor > 0
     hit = o[on_floor] + t_floor[on_floor, None] * d[on_floor]
-    rgb[on_floor] = _floor_colour(hit[:, :2])
+    rgb[on_floor] = FLOORS[floor](hit[:, :2])
     a = rgba[:, 3:4]
     rgb = rgba[:, :3] + (1 - a) * rgb  # rgba is premultiplied
     rgb = rgb.reshape(cam.height, ss, cam.width, ss, 3).mean(axis=(1, 3))
@@ -107,16 +137,22 @@ def _surface_points(prims, cams: list[Camera], per_view: int, rng: np.random.Gen
 
 
 def write_capture(name: str, out_dir: str | os.PathLike, n: int = 30, size: int = 256, k1: float = -0.06,
-                  portrait_every: int = 3, exif_every: int = 2, force: bool = False, seed: int = 0) -> Path:
+                  portrait_every: int = 3, exif_every: int = 2, force: bool = False, seed: int = 0,
+                  floor: str = "planks") -> Path:
     """Write the phone-capture version of sample ``name`` into ``out_dir`` (see the module docstring).
 
     ``size``: the long side of every photo; ``k1``: radial distortion; every ``portrait_every``-th photo is
     portrait, and every ``exif_every``-th of those is stored as landscape pixels with EXIF orientation 6 (as
-    phones do; COLMAP poses the stored pixels, so its camera is landscape too).
+    phones do; COLMAP poses the stored pixels, so its camera is landscape too). ``floor``: one of
+    :data:`FLOORS`.
 
     Raises:
-        DoodleError: unknown name, or ``out_dir`` exists and is not empty without ``force``.
+        DoodleError: unknown name or floor, or ``out_dir`` exists and is not empty without ``force``.
     """
+    from ..errors import DoodleError
+
+    if floor not in FLOORS:
+        raise DoodleError(f"unknown floor {floor!r} (choose from {', '.join(FLOORS)})")
     out = sample_target(name, out_dir, force)
     prims = SCENES[name]()
     rng = np.random.default_rng(seed)
@@ -126,7 +162,7 @@ def write_capture(name: str, out_dir: str | os.PathLike, n: int = 30, size: int 
             (tmp / d).mkdir(parents=True)
         cam_lines, image_lines, portraits = {}, [], 0
         for i, cam in enumerate(cams, start=1):
-            rgb, mask = _photo(prims, cam, k1, rng)
+            rgb, mask = _photo(prims, cam, k1, rng, floor=floor)
             im, m = Image.fromarray(rgb), Image.fromarray(mask.astype(np.uint8) * 255)
             R, t, w, h = cam.R, cam.t, cam.width, cam.height
             exif = None

@@ -94,7 +94,7 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     if model_dir is None:
         raise SceneError(f"{root}: no COLMAP model (cameras.bin/.txt) in it or in sparse/0")
     check_binary_model(model_dir)
-    rec, ids, pts = _read_model(model_dir)
+    rec, ids, pts, views = _read_model(model_dir)
     images_dir = Path(images_dir) if images_dir else root / "images"
     if masks_dir is None and (root / "masks").is_dir():
         masks_dir = root / "masks"
@@ -132,12 +132,14 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     has_masks = all(m is not None for m in masks)
     c0 = rec.camera(rec.image(ids[0]).camera_id)
     frame = estimate_frame(cameras, points=pts if len(pts) else None, full_size=(c0.width, c0.height))
-    return Scene(cameras, images, frame,
-                 masks if has_masks else None, pts if len(pts) else None, str(root), paths)
+    return Scene(cameras, images, frame, masks if has_masks else None, pts if len(pts) else None, str(root), paths,
+                 point_views=views if len(pts) and views is not None else None)
 
 
 def _read_model(model_dir: Path):
-    """``(reconstruction, registered image ids sorted by name, points (P, 3))``, or a one-line error.
+    """``(reconstruction, registered image ids sorted by name, points (P, 3), each point's views)``, or a
+    one-line error. A point's views are the indices (in that order) of the images that observed it; ``None``
+    for a model without tracks (a text model may list none).
 
     pycolmap raises bare RuntimeErrors/ValueErrors for unreadable models, and for inconsistent ones (a frame
     naming a missing image) only when they are first touched, so everything is touched here once."""
@@ -150,6 +152,9 @@ def _read_model(model_dir: Path):
             rec.camera(rec.image(i).camera_id)
         pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
         tracks = np.array([p.track.length() for p in rec.points3D.values()], dtype=np.int64)
+        index = {image_id: k for k, image_id in enumerate(ids)}
+        views = [np.unique([index[e.image_id] for e in p.track.elements if e.image_id in index]).astype(np.int64)
+                 for p in rec.points3D.values()]
     except Exception as exc:  # pycolmap raises bare RuntimeErrors/ValueErrors (and may raise others)
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise SceneError(f"{model_dir}: cannot read COLMAP model ({why})") from None
@@ -157,16 +162,18 @@ def _read_model(model_dir: Path):
         raise SceneError(f"{model_dir}: the COLMAP model has no registered images")
     if not (np.isfinite(pts).all() and np.abs(pts).max(initial=0) <= MAX_COORD):
         raise SceneError(f"{model_dir}: the COLMAP model has non-finite or huge 3D points")
-    return rec, ids, reliable_points(pts, tracks)
+    keep = reliable_points(tracks)
+    return rec, ids, pts[keep], ([views[k] for k in np.flatnonzero(keep)] if tracks.any() else None)
 
 
-def reliable_points(points: np.ndarray, track_lengths: np.ndarray, min_points: int = MIN_POINTS) -> np.ndarray:
-    """SfM points ``(P, 3)`` without those seen in fewer than 3 photos, when at least ``min_points`` remain.
+def reliable_points(track_lengths: np.ndarray, min_points: int = MIN_POINTS) -> np.ndarray:
+    """Which SfM points to keep ``(P,)``: not those seen in fewer than 3 photos, when at least ``min_points``
+    remain.
 
     Two-photo points are the ones a chance match makes (on the composited Lego photos, 165 of the 234 points
     floating off the object); a model without tracks (``track_lengths`` 0) keeps all its points."""
     sure = track_lengths >= 3
-    return points[sure] if sure.sum() >= min_points else points
+    return sure if sure.sum() >= min_points else np.ones(len(track_lengths), bool)
 
 
 def _check_model(cam, model_dir: Path) -> None:

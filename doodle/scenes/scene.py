@@ -35,6 +35,9 @@ class Scene:
     source: str = ""
     image_paths: list[Path] = field(default_factory=list)
     masks_automatic: bool = False
+    point_views: list[np.ndarray] | None = None
+    """Optional, per point: the indices of the views that observed it (SfM tracks); a point is surely visible
+    in those views. ``None`` when the points came without tracks."""
 
     def __len__(self) -> int:
         return len(self.cameras)
@@ -42,10 +45,15 @@ class Scene:
     def subset(self, indices: list[int] | np.ndarray) -> "Scene":
         """The scene restricted to the given views."""
         idx = [int(i) for i in indices]
+        views = None
+        if self.point_views is not None:
+            new_index = np.full(len(self), -1)
+            new_index[idx] = np.arange(len(idx))
+            views = [new_index[v][new_index[v] >= 0] for v in self.point_views]
         return Scene(
             [self.cameras[i] for i in idx], [self.images[i] for i in idx], self.frame,
             [self.masks[i] for i in idx] if self.masks is not None else None, self.points, self.source,
-            [self.image_paths[i] for i in idx] if self.image_paths else [], self.masks_automatic,
+            [self.image_paths[i] for i in idx] if self.image_paths else [], self.masks_automatic, views,
         )
 
 
@@ -65,7 +73,7 @@ def working_scene(scene: Scene, size: int) -> Scene:
                 m = np.asarray(Image.fromarray(m.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
             out_masks.append(m)
     return Scene(out_cams, out_images, scene.frame, out_masks if scene.masks is not None else None, scene.points,
-                 scene.source, scene.image_paths, scene.masks_automatic)
+                 scene.source, scene.image_paths, scene.masks_automatic, scene.point_views)
 
 
 def closest_point_to_axes(cameras: list[Camera]) -> np.ndarray:

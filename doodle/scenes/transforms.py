@@ -66,7 +66,8 @@ def _image_path(root: Path, file_path: str, where: str = "") -> Path:
 
 def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float = 1.0,
                         with_images: bool = True) -> Scene:
-    """Load a NeRF-synthetic folder (``transforms_{split}.json``, RGBA images; alpha is the mask).
+    """Load a NeRF-synthetic folder (``transforms_{split}.json``; the images' alpha is the mask, and RGB images
+    have none: ``masks`` is ``None`` and automatic masks are made for them).
 
     ``fx = 0.5 · width / tan(0.5 · camera_angle_x)``; world up is +z. ``with_images=False`` reads only the
     first image's size (for drawing the dataset's cameras).
@@ -104,10 +105,23 @@ def load_nerf_synthetic(root: str | Path, split: str = "train", downscale: float
         fx = 0.5 * w / math.tan(0.5 * angle)
         cameras.append(Camera(fx, fx, w / 2, h / 2, w, h, R, t, name=img_path.stem))
         images.append(rgb)
-        masks.append(mask if mask is not None else np.ones((h, w), bool))
+        masks.append(mask)
         paths.append(img_path)
     frame = estimate_frame(cameras, up=np.array([0.0, 0.0, 1.0]), full_size=(w0, h0))
-    return Scene(cameras, images, frame, masks if with_images else None, None, str(root), paths)
+    return Scene(cameras, images, frame, _masks_or_none(masks, paths, path) if with_images else None, None,
+                 str(root), paths)
+
+
+def _masks_or_none(masks: list[np.ndarray | None], paths: list[Path], source: Path) -> list[np.ndarray] | None:
+    """The views' masks (alpha or mask files), or ``None`` when no view has one (RGB photos: automatic masks are
+    made for them, never an all-object mask). Some with and some without is an error naming the first without."""
+    missing = [p for p, m in zip(paths, masks) if m is None]
+    if not missing:
+        return masks  # type: ignore[return-value]
+    if len(missing) == len(masks):
+        return None
+    raise SceneError(f"{source}: {missing[0].name} has no alpha or mask while other views have one (give every "
+                     "view a mask, or none)")
 
 
 def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
@@ -117,7 +131,6 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
     path = root / "transforms.json"
     data = _read_json(path)
     cameras, images, masks, paths = [], [], [], []
-    any_mask = False
     for i, fr in enumerate(data["frames"]):
         if not isinstance(fr, dict) or not isinstance(fr.get("file_path"), str):
             raise SceneError(f"{path}: frames[{i}].file_path missing")
@@ -146,11 +159,10 @@ def load_nerfstudio(root: str | Path, downscale: float = 1.0) -> Scene:
         rgb, mask = read_image(img_path, (w, h))
         if isinstance(fr.get("mask_path"), str):
             mask = read_mask(scene_path(root, fr["mask_path"], f"{path}: frames[{i}].mask_path"), (w, h))
-        any_mask |= mask is not None
         cameras.append(Camera(intr["fl_x"] * sx, intr["fl_y"] * sy, intr["cx"] * sx, intr["cy"] * sy, w, h, R, t,
                               name=img_path.stem))
         images.append(rgb)
-        masks.append(mask if mask is not None else np.ones((h, w), bool))
+        masks.append(mask)
         paths.append(img_path)
-    return Scene(cameras, images, estimate_frame(cameras, full_size=full), masks if any_mask else None, None,
+    return Scene(cameras, images, estimate_frame(cameras, full_size=full), _masks_or_none(masks, paths, path), None,
                  str(root), paths)

@@ -19,7 +19,15 @@ from .scene import Scene
 
 
 def triangulate_scene_points(scene: Scene, max_views: int = 24, log: Callable[[str], None] = print) -> np.ndarray:
-    """3D points ``(P, 3)`` triangulated from up to ``max_views`` evenly picked views of ``scene``.
+    """3D points ``(P, 3)`` triangulated from up to ``max_views`` evenly picked views of ``scene`` (see
+    :func:`triangulate_with_views`)."""
+    return triangulate_with_views(scene, max_views, log)[0]
+
+
+def triangulate_with_views(scene: Scene, max_views: int = 24, log: Callable[[str], None] = print
+                           ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """3D points ``(P, 3)`` triangulated from up to ``max_views`` evenly picked views of ``scene``, and per point
+    the indices of the scene's views that observed it.
 
     The scene's (working-size) images are written to a temporary folder with a COLMAP text model of their
     known cameras; pycolmap extracts and matches SIFT features and triangulates with the poses held fixed.
@@ -74,9 +82,12 @@ def triangulate_scene_points(scene: Scene, max_views: int = 24, log: Callable[[s
         except Exception as exc:  # pycolmap raises bare runtime errors
             raise SceneError(f"{scene.source}: triangulation failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
         pts = np.array([p.xyz for p in rec.points3D.values()], dtype=np.float64).reshape(-1, 3)
+        view_of = {image_id: int(idx[names.index(name)]) for image_id, _, name in rows}
+        views = [np.unique([view_of[e.image_id] for e in p.track.elements if e.image_id in view_of]).astype(np.int64)
+                 for p in rec.points3D.values()]
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if len(pts) == 0:
         raise SceneError(f"{scene.source}: triangulation found no points (images without texture?)")
     log(f"triangulated {len(pts)} points")
-    return pts
+    return pts, views

@@ -1,0 +1,206 @@
+"""Where the object is in 3D, from what an object-centric capture guarantees.
+
+- **Fixation.** Photos of one object are aimed at it: the point nearest all optical axes is on it or near it.
+- **Support.** It stands on something (a table, a floor, a carpet): the dominant plane among the 3D points that
+  every camera looks down on, and that reaches beyond the object, found by RANSAC. Its points, and what lies
+  beyond it, are background.
+- **One object.** The object's points are the cluster of points above the support that holds the fixation
+  point (or lies nearest it): points in other clusters (a shelf behind, a chance match floating alone) are
+  background too.
+
+The object points seed every view's cut as object and the background points as background
+(:mod:`.cut`); the plane also bounds the hull carved from the views' masks (:mod:`.hull`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ...cameras import Camera
+from ...errors import SceneError
+from ..scene import Scene, closest_point_to_axes
+
+PLANE_TOL = 0.01
+"""Points within this share of the scene radius of the support plane lie on it."""
+
+
+@dataclass
+class ObjectRegion:
+    """The object in 3D: its points, the points that are surely not it, the fixation point and the support."""
+
+    focus: np.ndarray
+    object_points: np.ndarray
+    background_points: np.ndarray
+    plane: tuple[np.ndarray, float] | None
+    """``(unit normal towards the cameras, offset)``: ``normal · p = offset`` on the support; ``None`` when
+    there is none (an object held up, or photographed on a plain backdrop that gave no points)."""
+    radius: float
+    """The scene radius: the largest sphere about the focus that every camera sees whole (its median)."""
+    background_views: list[np.ndarray] | None = None
+    """Per background point, the views that observed it (SfM tracks; ``None``: unknown): a point of the floor
+    behind the object projects onto the object in the views that do not see it."""
+
+    def height(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance of ``points`` above the support (``+inf`` without one)."""
+        if self.plane is None:
+            return np.full(len(points), np.inf)
+        n, d = self.plane
+        return points @ n - d
+
+
+def reaches_border(points: np.ndarray, cameras: list[Camera], band: float = 0.03) -> float:
+    """Share of the views in which some of ``points`` ``(P, 3)`` land within ``band`` (of the image's width or
+    height) of the frame's edge: a table or floor continues out of the photos, an object is framed by them."""
+    reach = []
+    for cam in cameras:
+        uv, ok = in_view(cam, points)
+        size = np.array([cam.width, cam.height], float)
+        uv = uv[ok]
+        reach.append(bool(((uv < band * size) | (uv > (1 - band) * size)).any()))
+    return float(np.mean(reach)) if reach else 0.0
+
+
+def in_view(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel positions ``(P, 2)`` of world points and whether each lands in the frame in front of the camera."""
+    pc = pts @ cam.R.T + cam.t
+    z = pc[:, 2]
+    uv = pc[:, :2] / np.where(z > 1e-9, z, 1e-9)[:, None] * [cam.fx, cam.fy] + [cam.cx, cam.cy]
+    ok = (z > 1e-9) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] < cam.height)
+    return uv, ok
+
+
+def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, radius: float,
+                  everything: np.ndarray | None = None, iterations: int = 2000, seed: int = 0
+                  ) -> tuple[np.ndarray, float] | None:
+    """The plane the object stands on: ``(unit normal towards the cameras, offset)``, or ``None``.
+
+    RANSAC over ``points``: a hypothesis counts when at least 90 % of the cameras and the fixation point
+    ``focus`` lie above it and at most 5 % of the points lie below it (a floor has nothing under it; a plane
+    through the object has half of it below); the one with most points within :data:`PLANE_TOL` of ``radius``
+    wins, when at least 20 points and 3 % of them lie on it (a plain paper or table gives few features: the
+    object may give many more). It is the support, not the object's own base, when its points spread beyond
+    the points above it, or continue out of the photos (among ``everything``, when given, they come within 3 %
+    of the frame's edge in half the views): a base plate twice as wide as the object on it and framed by every
+    photo (Lego's) is part of the object.
+    """
+    if len(points) < 30:
+        return None
+    rng = np.random.default_rng(seed)
+    tol = PLANE_TOL * radius
+    eyes = np.array([c.center for c in cameras])
+    tri = points[rng.integers(0, len(points), (iterations, 3))]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    ok = length > 1e-12
+    normals, tri = normals[ok] / length[ok, None], tri[ok]
+    offsets = np.einsum("ij,ij->i", normals, tri[:, 0])
+    flip = ((eyes @ normals.T - offsets) > 0).mean(axis=0) < 0.5  # orient each towards the cameras
+    normals[flip], offsets[flip] = -normals[flip], -offsets[flip]
+    best, best_count = None, 0
+    for start in range(0, len(normals), 256):  # hypotheses in batches: (batch, points) heights
+        n, d = normals[start:start + 256], offsets[start:start + 256]
+        h = points @ n.T - d
+        count = (np.abs(h) < tol).sum(axis=0)
+        valid = (((eyes @ n.T - d) > 0).mean(axis=0) >= 0.9) & ((h < -3 * tol).mean(axis=0) <= 0.05) \
+            & (focus @ n.T - d > -tol)
+        count = np.where(valid, count, 0)
+        k = int(np.argmax(count))
+        if count[k] > best_count:
+            best, best_count = (n[k], float(d[k])), int(count[k])
+    if best is None or best_count < max(20, 0.03 * len(points)):
+        return None
+    n, d = best
+    on = np.abs(points @ n - d) < tol
+    centroid = points[on].mean(axis=0)  # refit on its inliers (least squares), kept facing the cameras
+    normal = np.linalg.svd(points[on] - centroid)[2][-1]
+    n, d = (normal, float(normal @ centroid)) if normal @ n > 0 else (-normal, float(-normal @ centroid))
+    above = (points @ n - d) > 3 * tol
+    if above.sum() < 10:
+        return n, d  # nothing stands on it but what the photos are of: a plain support seen all round
+    centre = points[above].mean(axis=0)
+
+    def spread(p: np.ndarray) -> float:
+        flat = (p - centre) - np.outer((p - centre) @ n, n)
+        return float(np.percentile(np.linalg.norm(flat, axis=1), 90))
+
+    if spread(points[np.abs(points @ n - d) < tol]) >= 1.3 * spread(points[above]):
+        return n, d
+    pool = points if everything is None else everything
+    if reaches_border(pool[np.abs(pool @ n - d) < tol], cameras) >= 0.5:
+        return n, d
+    return None  # within the object's footprint and framed by the photos: a base, part of the object
+
+
+def _clusters(points: np.ndarray) -> np.ndarray:
+    """Labels ``(P,)`` of the single-linkage clusters of ``points``: two points join when they are closer than
+    three times the typical distance to a point's fourth neighbour."""
+    tree = cKDTree(points)
+    k = min(5, len(points))
+    gap = float(np.median(tree.query(points, k=k)[0][:, -1])) if k > 1 else 0.0
+    pairs = tree.query_pairs(max(3.0 * gap, 1e-12), output_type="ndarray")
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
+    return connected_components(graph, directed=False)[1]
+
+
+def _fixation_seeds(focus: np.ndarray, radius: float) -> np.ndarray:
+    """A few points about the fixation point (2 % of the radius apart): they seed the object where the cameras
+    aim, for an object that gave few points of its own (a smooth toy on a busy carpet)."""
+    return focus + 0.02 * radius * np.vstack([np.zeros(3), np.eye(3), -np.eye(3)])
+
+
+def object_region(scene: Scene) -> ObjectRegion:
+    """The object's region in ``scene`` (see the module doc), from its points when it has any (without, the
+    fixation point alone seeds the object).
+
+    Raises:
+        SceneError: when the cameras' focus is not above the support they look down on.
+    """
+    cams = scene.cameras
+    focus = closest_point_to_axes(cams)
+    radius = scene.frame.radius
+    pts = scene.points if scene.points is not None else np.zeros((0, 3))
+    near = np.linalg.norm(pts - focus, axis=1) < 1.5 * radius
+    plane = support_plane(pts[near], cams, focus, radius, everything=pts) if near.sum() >= 30 else None
+    height = pts @ plane[0] - plane[1] if plane is not None else np.full(len(pts), np.inf)
+    candidate = near & (height > 3 * PLANE_TOL * radius)
+    keep = np.zeros(len(pts), bool)
+    if candidate.sum() >= 10:
+        idx = np.flatnonzero(candidate)
+        labels = _clusters(pts[idx])
+        # The object's cluster: the one holding the point nearest the focus, or the largest within reach of it
+        sizes = np.bincount(labels)
+        dist = np.linalg.norm(pts[idx] - focus, axis=1)
+        reach = np.array([dist[labels == k].min() for k in range(len(sizes))])
+        mine = labels[np.argmin(dist)]
+        if sizes[mine] < 10:
+            within = np.flatnonzero(reach < 0.5 * radius)
+            mine = within[np.argmax(sizes[within])] if len(within) else int(np.argmax(sizes))
+        keep[idx[labels == mine]] = True
+        # and the clusters that are part of it seen apart (a handle, a cable): those within its own reach
+        centre = pts[keep].mean(axis=0)
+        extent = float(np.percentile(np.linalg.norm(pts[keep] - centre, axis=1), 95))
+        for k in range(len(sizes)):
+            members = idx[labels == k]
+            if k != mine and sizes[k] >= 10 and np.linalg.norm(pts[members].mean(axis=0) - centre) < 1.2 * extent:
+                keep[members] = True
+    if plane is not None and focus @ plane[0] - plane[1] <= PLANE_TOL * radius:
+        raise SceneError(f"{scene.source}: the cameras do not aim at anything above the support they look down "
+                         "on; give masks with --masks DIR (white = object)")
+    # The object is where the cameras aim: seeded there too (a smooth object may give few points of its own)
+    obj = np.vstack([pts[keep], _fixation_seeds(focus, radius)])
+    centre = obj.mean(axis=0)
+    extent = max(float(np.percentile(np.linalg.norm(obj - centre, axis=1), 95)), 0.5 * radius)
+    # Background is only what surely is not the object: the support and what lies beyond it, and what stands
+    # well apart from the object. A lone point beside it (a chance match, or a point on a smooth part too
+    # sparse to join the cluster) seeds nothing either way.
+    far = np.linalg.norm(pts - centre, axis=1) > 2.0 * extent
+    background = ~keep & (far | (height <= PLANE_TOL * radius))
+    views = None if scene.point_views is None or not len(pts) else \
+        [scene.point_views[i] for i in np.flatnonzero(background)]
+    return ObjectRegion(focus, obj, pts[background], plane, radius, views)
