@@ -88,102 +88,6 @@ def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path)
     assert with_masks(scene, "none", log=lambda m: None).masks is None
 
 
-def test_automatic_masks_open_the_gaps_the_hull_fills(capture, monkeypatch):
-    """Photo-consistency opens what the first cuts and the hull carved from them fill (under the seat, between
-    the legs): the masks spill onto the truth's background less than without that step, and what they gain there
-    outweighs the little object they lose (a few grazing faces whose colour changes with the view)."""
-    from doodle.scenes import automask
-
-    truth = load_colmap(capture, masks_dir=capture / "true_masks").masks
-    scene = load_colmap(capture)
-    opened = automask.auto_masks(scene, log=lambda m: None)
-    monkeypatch.setattr(automask, "_holes", lambda error, hull, uv: np.zeros_like(hull))
-    filled = automask.auto_masks(scene, log=lambda m: None)
-    spill = lambda masks: sum(int((m & ~t).sum()) for m, t in zip(masks, truth))
-    lost = lambda masks: sum(int((t & ~m).sum()) for m, t in zip(masks, truth))
-    assert spill(opened) < 0.85 * spill(filled), (spill(opened), spill(filled))
-    assert spill(filled) - spill(opened) > lost(opened) - lost(filled), (spill(opened), spill(filled), lost(opened), lost(filled))
-    assert np.mean([_iou(m, t) for m, t in zip(opened, truth)]) >= np.mean([_iou(m, t) for m, t in zip(filled, truth)])
-
-
-def test_holes_are_inconsistent_blobs_where_no_object_point_lands():
-    from doodle.scenes.automask import HOLE_MIN_ERROR, _holes
-
-    hull = np.zeros((80, 80), bool)
-    hull[10:70, 10:70] = True
-    error = np.where(hull, 2.0, 0.0)
-    error[20:32, 20:32] = 40.0  # a hole: inconsistent, no point lands in it
-    error[45:57, 45:57] = 40.0  # inconsistent too, but object points land in it (a shiny patch)
-    error[60:62, 20:22] = 40.0  # a speck
-    error[20:32, 45:57] = HOLE_MIN_ERROR - 1  # a low-contrast patch, consistent enough
-    yy, xx = np.mgrid[10:70:3, 10:70:3]
-    points = np.c_[xx.ravel(), yy.ravel()].astype(float) + 0.5
-    points = points[~((points[:, 0] >= 20) & (points[:, 0] < 32) & (points[:, 1] >= 20) & (points[:, 1] < 32))]
-    holes = _holes(error, hull, points)
-    assert holes[24:28, 24:28].all()
-    assert not holes[45:57, 45:57].any() and not holes[58:64, 18:24].any() and not holes[20:32, 45:57].any()
-    assert not holes[~hull].any()
-    # without enough points to know the object's own colour error, nothing is opened
-    assert not _holes(error, hull, points[:5]).any()
-
-
-def test_a_photo_consistent_strip_the_background_colour_stays_object():
-    """A strip of the object coloured like the background (Lego's grey lower edge of its plate): GrabCut's
-    colour models cut it off; the photos agreeing on its colour at a depth in the hull keep it."""
-    from doodle.scenes.automask import _final_cut, _surely_object
-
-    rng = np.random.default_rng(0)
-    H = W = 96
-    grey = np.array([110, 110, 110])
-    image = np.clip(grey + rng.normal(0, 40, (H, W, 3)), 0, 255)  # a busy backdrop around grey
-    image[20:60, 20:76] = [230, 190, 40]  # the object's body …
-    image[60:66, 20:76] = grey + rng.normal(0, 4, (6, 56, 3))  # … and its strip, the backdrop's mean colour
-    image = image.astype(np.uint8)
-    truth = np.zeros((H, W), bool)
-    truth[20:66, 20:76] = True
-    hull = ndimage.binary_dilation(truth, iterations=2)  # the hull's projection: a little fat
-    yy, xx = np.mgrid[22:58:3, 22:74:3]
-    points = np.c_[xx.ravel(), yy.ravel()].astype(float) + 0.5  # SfM points on the body only
-    error = np.where(hull, 30.0, 0.0)  # the backdrop seen through the fat hull: inconsistent
-    error[truth] = 3.0  # the surface: the neighbouring photos agree
-    core_error = error.copy()
-    core_error[62:66] = np.inf  # the strip's lower half lies outside the hull itself (only in the wider band) …
-    no_holes = np.zeros_like(hull)
-    plain = _final_cut(image, hull, points, no_holes)
-    sure = _surely_object(error, error, hull, points, no_holes)
-    kept = _final_cut(image, hull, points, no_holes, sure)
-    assert plain[61:65, 24:72].mean() < 0.5  # GrabCut alone drops the strip
-    # kept, at the cost of some backdrop of its colour that the object's colour model now takes: a better mask
-    assert kept[60:66, 22:74].all() and _iou(kept, truth) > _iou(plain, truth) + 0.03
-    assert sure[truth].all() and not sure[hull & ~truth].any()
-    # … which is then not sure (only the hull's own depths count), nor are holes, nor is anything without points
-    assert not _surely_object(error, core_error, hull, points, no_holes)[62:66].any()
-    holes = np.zeros_like(hull)
-    holes[30:40, 30:40] = True
-    assert not _surely_object(error, error, hull, points, holes)[holes].any()
-    assert not _surely_object(error, error, hull, points[:5], no_holes).any()
-
-
-def test_support_plane_is_removed():
-    from doodle.cameras import Camera, look_at
-    from doodle.scenes.automask import remove_support_plane
-
-    rng = np.random.default_rng(0)
-    floor = np.c_[rng.uniform(-2, 2, (400, 2)), np.full(400, -1.0)]
-    obj = rng.normal(0, 0.3, (200, 3))
-    cams = []
-    for a in np.linspace(0, 2 * np.pi, 8, endpoint=False):
-        R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), 1.5]), np.zeros(3), np.array([0, 0, 1.0]))
-        cams.append(Camera(100, 100, 50, 50, 100, 100, R, t))
-    kept, removed = remove_support_plane(np.r_[floor, obj], cams, radius=1.0)
-    assert removed
-    assert (kept[:, 2] > -0.97).all() and len(kept) > 180
-    # A base plate twice as wide as the object on it, framed by every photo (Lego's): part of the object.
-    plate = np.c_[rng.uniform(-0.6, 0.6, (400, 2)), np.full(400, -1.0)]
-    kept, removed = remove_support_plane(np.r_[plate, obj * 0.6], cams, radius=1.0)
-    assert not removed and len(kept) == 600
-
-
 def test_fit_export_eval_on_a_phone_capture(capture, tmp_path):
     """The whole path as a user runs it: no masks given, mixed views, distortion."""
     cap = tmp_path / "cap"
@@ -276,17 +180,160 @@ def test_misaimed_cameras_are_flagged():
     assert not misaimed(np.c_[np.arange(10.0), np.zeros(10), np.zeros(10)], forward).any()
 
 
-def test_a_point_floating_off_the_object_is_not_an_object_point(capture):
-    """A chance match floating beside the object (within its reach, but alone) would seed every view's cut."""
+# ---- automatic masks on any background -------------------------------------------------------------------
+
+def _ring_cameras(n: int = 8, elevation: float = 1.5):
+    from doodle.cameras import Camera, look_at
+
+    cams = []
+    for a in np.linspace(0, 2 * np.pi, n, endpoint=False):
+        R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), elevation]), np.zeros(3), np.array([0, 0, 1.0]))
+        cams.append(Camera(100, 100, 50, 50, 100, 100, R, t))
+    return cams
+
+
+def test_the_support_is_the_plane_with_nothing_under_it_and_not_a_base_plate():
+    from doodle.scenes.automask.region import support_plane
+
+    rng = np.random.default_rng(0)
+    cams = _ring_cameras()
+    floor = np.c_[rng.uniform(-2, 2, (150, 2)), np.full(150, -1.0)]  # fewer points than the object gave
+    obj = rng.normal(0, 0.3, (600, 3))
+    n, d = support_plane(np.r_[floor, obj], cams, np.zeros(3), radius=1.0)
+    assert np.allclose(n, [0, 0, 1], atol=1e-6) and abs(d + 1.0) < 1e-6  # facing the cameras
+    # a plane through the object (half of it below) is no support, however many points lie on it
+    slab = np.c_[rng.uniform(-0.3, 0.3, (400, 2)), np.zeros(400)]
+    assert support_plane(np.r_[slab, obj], cams, np.zeros(3), radius=1.0) is None
+    # a base plate twice as wide as the object on it, framed by every photo (Lego's): part of the object
+    plate = np.c_[rng.uniform(-0.6, 0.6, (400, 2)), np.full(400, -1.0)]
+    assert support_plane(np.r_[plate, obj * 0.6], cams, np.zeros(3), radius=1.0) is None
+
+
+def test_the_object_region_is_the_cluster_the_cameras_aim_at(capture):
+    """The object's points are the cluster above the support where the cameras aim; the floor's points are
+    background, and so is a cluster standing well apart; a point floating alone beside the object is neither."""
     from dataclasses import replace
 
-    from doodle.scenes.automask import object_points
+    from doodle.scenes.automask import object_region
 
     scene = load_colmap(capture)
     r = scene.frame.radius
     rng = np.random.default_rng(0)
-    body = scene.frame.center + rng.uniform(-0.3 * r, 0.3 * r, (3000, 3))  # an object's dense SfM points
-    floating = scene.frame.center + np.array([0.0, 0.0, 0.5 * r])
-    found = object_points(replace(scene, points=np.vstack([body, floating])))
-    assert not np.any(np.all(np.isclose(found, floating), axis=1))
-    assert len(found) >= 0.95 * len(body)  # the object's own points stay
+    c = scene.frame.center
+    body = c + rng.uniform(-0.3 * r, 0.3 * r, (3000, 3))
+    floor = np.c_[rng.uniform(-2 * r, 2 * r, (2000, 2)) + c[:2], np.full(2000, c[2] - 0.6 * r)]
+    shelf = c + np.array([2.4 * r, 0, 0]) + rng.uniform(-0.1 * r, 0.1 * r, (300, 3))
+    floating = c + np.array([0.0, 0.0, 0.5 * r])
+    region = object_region(replace(scene, points=np.vstack([body, floor, shelf, floating]), point_views=None))
+    found = {tuple(p) for p in region.object_points}
+    assert sum(tuple(p) in found for p in body) >= 0.95 * len(body)
+    assert tuple(floating) not in found and not any(tuple(p) in found for p in shelf[:50])
+    back = {tuple(p) for p in region.background_points}
+    assert all(tuple(p) in back for p in floor[:200]) and all(tuple(p) in back for p in shelf[:50])
+    assert tuple(floating) not in back and region.plane is not None
+
+
+@pytest.fixture(scope="module")
+def carpet(tmp_path_factory) -> Path:
+    return write_capture("parcel", tmp_path_factory.mktemp("carpet") / "parcel", n=16, size=240, floor="carpet")
+
+
+def test_a_carpet_gives_more_points_than_the_object_and_is_told_from_it(carpet):
+    """The red carpet (more features than the object on it) is the support; what stands on it disagrees with
+    the floor the other views see there (:mod:`doodle.scenes.automask.floor`), and the masks find the parcel."""
+    from doodle.scenes.automask import auto_masks, object_region
+    from doodle.scenes.automask.floor import blurred, floor_error, floor_pixels
+
+    truth = load_colmap(carpet, masks_dir=carpet / "true_masks").masks
+    scene = load_colmap(carpet)
+    region = object_region(scene)
+    assert region.plane is not None and len(region.background_points) > len(region.object_points)
+    k = 3
+    error = floor_error(k, scene.cameras, [blurred(i) for i in scene.images], region)
+    on = np.abs(region.height(region.background_points)) < 0.01 * region.radius
+    uv, ok = in_view_of(scene.cameras[k], region.background_points[on])
+    floor, off = floor_pixels(error, uv[ok])
+    t = truth[k]
+    assert off[t].mean() > 0.5 and off[~t].mean() < 0.15, (off[t].mean(), off[~t].mean())
+    assert floor[~t].mean() > 0.25 and floor[t].mean() < 0.02, (floor[~t].mean(), floor[t].mean())
+    masks = auto_masks(scene, log=lambda m: None)
+    ious = [_iou(a, b) for a, b in zip(masks, truth)]
+    assert np.mean(ious) > 0.9, ious
+
+
+def in_view_of(cam, pts):
+    from doodle.scenes.automask.region import in_view
+
+    return in_view(cam, pts)
+
+
+def test_masks_that_cover_the_photos_stop_the_fit_in_one_line_and_write_nothing(capture, tmp_path, monkeypatch):
+    """When the object is not told from its surroundings (every cut takes the whole photo), the fit stops with
+    one line saying to give masks, exit 2, and writes neither masks nor strokes."""
+    from doodle.scenes import automask
+    from doodle.scenes.automask import check_masks
+
+    full = [np.ones((30, 40), bool)] * 5
+    with pytest.raises(SceneError, match="cover 100% of the photos.*--masks DIR"):
+        check_masks(full, np.ones(5), "x")
+    with pytest.raises(SceneError, match="disagree between views.*--masks DIR"):
+        check_masks([np.eye(30, 40, dtype=bool)] * 5, np.full(5, 0.3), "x")
+    cap = tmp_path / "cap"
+    shutil.copytree(capture, cap)
+    monkeypatch.setattr(automask, "hull_cut", lambda image, shadow, *a, **k: np.ones(image.shape[:2], bool))
+    r = CliRunner().invoke(cli, ["fit", str(cap), "-o", str(tmp_path / "s.doodle"), "--size", "96"])
+    assert r.exit_code == 2 and r.output.strip().splitlines()[-1].startswith("Error: ") and "--masks DIR" in r.output
+    assert "Traceback" not in r.output and not (tmp_path / "s.doodle").exists() and not (cap / "doodle-masks").exists()
+
+
+def _rgb_copy(src: Path, dst: Path, suffix: str = ".jpg") -> None:
+    """``src``'s NeRF-synthetic images without alpha, over a beige backdrop, as ``suffix`` files."""
+    shutil.copytree(src, dst)
+    for p in dst.rglob("*.png"):
+        im = Image.open(p).convert("RGBA")
+        Image.alpha_composite(Image.new("RGBA", im.size, (200, 190, 170, 255)), im).convert("RGB").save(
+            p.with_suffix(suffix), quality=92)
+        p.unlink()
+
+
+def test_posed_rgb_photos_get_automatic_masks_not_an_all_object_mask(tmp_path):
+    """A NeRF-synthetic folder of RGB JPEGs (poses, no alpha) and the same as a nerfstudio folder: no masks on
+    load (never an all-object mask), automatic masks seeded where the known cameras aim, and a fit."""
+    import json
+
+    from doodle.samples import write_sample
+    from doodle.scenes.automask import with_masks
+
+    d = write_sample("parcel", tmp_path / "rgba", n_train=16, n_test=1, size=128)
+    _rgb_copy(d, tmp_path / "rgb")
+    scene = load_scene(tmp_path / "rgb")
+    assert scene.masks is None
+    truth = load_scene(d).masks
+    found = with_masks(scene, "auto", tmp_path / "rgb" / "doodle-masks", log=lambda m: None)
+    assert found.masks_automatic and np.mean([_iou(a, b) for a, b in zip(found.masks, truth)]) > 0.9
+    # nerfstudio: the same poses and photos, one transforms.json, no masks
+    doc = json.loads((tmp_path / "rgb" / "transforms_train.json").read_text())
+    f = 0.5 * 128 / np.tan(0.5 * doc["camera_angle_x"])
+    ns = tmp_path / "ns"
+    (ns / "images").mkdir(parents=True)
+    frames = []
+    for fr in doc["frames"]:
+        name = Path(fr["file_path"]).name + ".jpg"
+        shutil.copy(tmp_path / "rgb" / "train" / name, ns / "images" / name)
+        frames.append({"file_path": f"images/{name}", "transform_matrix": fr["transform_matrix"]})
+    (ns / "transforms.json").write_text(json.dumps({"fl_x": f, "fl_y": f, "cx": 64, "cy": 64, "w": 128, "h": 128,
+                                                    "frames": frames}))
+    r = CliRunner().invoke(cli, ["fit", str(ns), "-o", str(tmp_path / "ns.doodleb"), "--size", "128",
+                                 "--evidence-voxels", "96"])
+    assert r.exit_code == 0, r.output
+    assert "automatic masks" in r.output and len(list((ns / "doodle-masks").glob("*.png"))) == 16
+
+
+def test_some_views_with_alpha_and_some_without_is_an_error(tmp_path):
+    from doodle.samples import write_sample
+
+    d = write_sample("snowman", tmp_path / "s", n_train=4, n_test=1, size=32)
+    p = d / "train" / "r_2.png"
+    Image.open(p).convert("RGB").save(p)
+    with pytest.raises(SceneError, match="r_2.png has no alpha"):
+        load_scene(d)

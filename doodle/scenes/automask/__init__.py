@@ -168,7 +168,7 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
             if region.background_views is None:  # background points the hull hides in a view seed nothing there
                 seeds = [_seeds(k, c, region, s) for k, (c, s) in enumerate(zip(cams, shadows))]
             band = max(2.0, 0.03 * CUT_SIZE)
-            masks = list(pool.map(lambda k: hull_cut(images[k], shadows[k], *seeds[k], band, *floors[k]),
+            masks = list(pool.map(lambda k: hull_cut(images[k], shadows[k], *seeds[k], band, floors[k][0]),
                                   range(len(cams))))
     final = carve(cams, masks, region)
     agree = agreement(masks, [shadow(c, final, m.shape) for c, m in zip(cams, masks)])

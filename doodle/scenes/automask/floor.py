@@ -94,15 +94,23 @@ def blurred(image: np.ndarray) -> np.ndarray:
 
 def floor_pixels(error: np.ndarray, floor_uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(floor, off_floor)``, ``bool (H, W)``: the pixels that show the floor, and those that show something
-    standing on it, by their :func:`floor_error` against its median at the floor's own points ``floor_uv (P, 2)``
-    seen in this view (see :data:`FLOOR_CONTRAST`, :data:`OFF_CONTRAST`), each cleaned of specks."""
+    standing on it, by their :func:`floor_error` against its typical value in this view (at the floor's own
+    points ``floor_uv (P, 2)``, or over all the pixels that meet the floor) (see :data:`FLOOR_CONTRAST`, :data:`OFF_CONTRAST`), each cleaned of
+    specks."""
     H, W = error.shape
-    typical = 0.0
+    finite = error[np.isfinite(error)]
+    if len(finite) < 100:
+        return np.zeros_like(error, bool), np.zeros_like(error, bool)
+    # The floor's typical error: a low quantile at its points (those the object hides in this view, when no
+    # tracks tell, land on it and disagree), or of all the pixels that meet it (mostly floor in a photo of an
+    # object), whichever is lower.
+    typical = float(np.percentile(finite, 25))
     if len(floor_uv):
         u, v = np.clip(floor_uv.astype(int), 0, [W - 1, H - 1]).T
         at = error[v, u]
         at = at[np.isfinite(at)]
-        typical = float(np.median(at)) if len(at) >= 10 else 0.0
+        if len(at) >= 10:
+            typical = min(typical, float(np.percentile(at, 30)))
     if typical > FLOOR_MAX_TYPICAL:  # the floor itself does not agree between views here: the cue says nothing
         return np.zeros_like(error, bool), np.zeros_like(error, bool)
     floor = error < max(FLOOR_MIN_ERROR, FLOOR_CONTRAST * typical)

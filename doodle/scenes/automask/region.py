@@ -82,7 +82,7 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
     through the object has half of it below); the one with most points within :data:`PLANE_TOL` of ``radius``
     wins, when at least 20 points and 3 % of them lie on it (a plain paper or table gives few features: the
     object may give many more). It is the support, not the object's own base, when its points spread beyond
-    the points above it, or continue out of the photos (among ``everything``, when given, they come within 3 %
+    the points above it and continue out of the photos (among ``everything``, when given, they come within 3 %
     of the frame's edge in half the views): a base plate twice as wide as the object on it and framed by every
     photo (Lego's) is part of the object.
     """
@@ -126,12 +126,12 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
         flat = (p - centre) - np.outer((p - centre) @ n, n)
         return float(np.percentile(np.linalg.norm(flat, axis=1), 90))
 
-    if spread(points[np.abs(points @ n - d) < tol]) >= 1.3 * spread(points[above]):
-        return n, d
+    if spread(points[np.abs(points @ n - d) < tol]) < 1.3 * spread(points[above]):
+        return None  # within the object's footprint: a base, part of the object
     pool = points if everything is None else everything
-    if reaches_border(pool[np.abs(pool @ n - d) < tol], cameras) >= 0.5:
-        return n, d
-    return None  # within the object's footprint and framed by the photos: a base, part of the object
+    if reaches_border(pool[np.abs(pool @ n - d) < tol], cameras) < 0.5:
+        return None  # framed by the photos like the object: a base plate, not the table
+    return n, d
 
 
 def _clusters(points: np.ndarray) -> np.ndarray:
