@@ -67,3 +67,34 @@ def in_a_fresh_process(code: str) -> bytes:
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, env=env, timeout=240)
     assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
     return r.stdout
+
+
+NEUS_SCALE = np.array([[1.5, 0, 0, 0.1], [0, 1.5, 0, -0.2], [0, 0, 1.5, 0.05], [0, 0, 0, 1.0]])
+
+
+def neus_copy(root, n: int = 3, size: int = 32):
+    """A small sample scene written in the NeuS/IDR layout (``cameras_sphere.npz``, ``image/``, ``mask/``) under
+    ``root/scene``, its sphere frame mapped to the sample's world by :data:`NEUS_SCALE`. Returns
+    ``(folder, source scene)``."""
+    from pathlib import Path
+
+    from PIL import Image
+
+    from doodle.samples import write_sample
+    from doodle.scenes import load_scene
+
+    root = Path(root)
+    src = load_scene(write_sample("chair", root / "src", n_train=n, n_test=1, size=size))
+    scene = root / "scene"
+    (scene / "image").mkdir(parents=True)
+    (scene / "mask").mkdir()
+    mats = {}
+    for i, (cam, img, m) in enumerate(zip(src.cameras, src.images, src.masks)):
+        world = np.eye(4)
+        world[:3] = np.array([[cam.fx, 0, cam.cx], [0, cam.fy, cam.cy], [0, 0, 1]]) @ np.c_[cam.R, cam.t]
+        mats[f"world_mat_{i}"] = world * (-2.0 if i == 1 else 1.0)  # any scale, even negative, is the same camera
+        mats[f"scale_mat_{i}"] = NEUS_SCALE
+        Image.fromarray(img).save(scene / "image" / f"{i:06d}.png")
+        Image.fromarray(m.astype(np.uint8) * 255).save(scene / "mask" / f"{i:03d}.png")
+    np.savez(scene / "cameras_sphere.npz", **mats)
+    return scene, src

@@ -26,7 +26,7 @@ from doodle.strokes import read_strokes, write_strokes
 from doodle.strokes.binary import decode, encode
 from doodle.strokes.fileio import dumps, loads
 
-from helpers import random_strokes
+from helpers import neus_copy, random_strokes
 
 
 def _doc(strokes) -> dict:
@@ -441,12 +441,34 @@ def _template(kind: str) -> Path:
                  "h": c0.height, "frames": frames}))
             for split in ("train", "val", "test"):
                 (scene / f"transforms_{split}.json").unlink(missing_ok=True)
+        elif kind == "neus":
+            scene = neus_copy(root)[0]
         else:
             from doodle.samples import write_sample
 
             scene = write_sample("chair", root / "scene", n_train=3, n_test=1, size=32)
         _TEMPLATES[kind] = scene
     return _TEMPLATES[kind]
+
+
+def _spoil_npz(path: Path, data) -> None:
+    """Break one array of a cameras npz: an entry made hostile, a matrix dropped or reshaped, or bytes spliced."""
+    with np.load(path) as npz:
+        mats = {k: npz[k] for k in npz.files}
+    key = data.draw(st.sampled_from(sorted(mats)))
+    how = data.draw(st.sampled_from(["entry", "drop", "shape", "bytes"]))
+    if how == "entry":
+        mats[key] = mats[key].copy()
+        mats[key][data.draw(st.integers(0, 3)), data.draw(st.integers(0, 3))] = data.draw(
+            st.sampled_from([np.nan, np.inf, -np.inf, 0.0, -1.0, 1e300, -1e-300]) | st.floats(allow_nan=True))
+    elif how == "drop":
+        del mats[key]
+    elif how == "shape":
+        mats[key] = mats[key].reshape(-1)[: data.draw(st.integers(0, 16))]
+    if how != "bytes":
+        np.savez(path, **mats)
+    else:
+        _splice(path, data.draw(st.integers(0, 10**5)), data.draw(st.binary(min_size=1, max_size=32)))
 
 
 def _copy_scene(src: Path, dst: Path, own: str) -> Path:
@@ -515,6 +537,35 @@ def test_fuzz_colmap_reader(name, at, noise):
     """Random bytes spliced into a valid binary model: the scene loads, or one line; never a hang or a crash."""
 
     _load_broken_copy("colmap", f"sparse/0/{name}", lambda path: _splice(path, at, noise))
+
+
+@FUZZ
+@given(st.data())
+def test_fuzz_neus_reader(data):
+    """A NeuS/IDR folder (DTU's layout) whose cameras npz has an entry made non-finite, huge, zero or negative,
+    a matrix dropped or cut short, or bytes spliced in: the scene loads with a sane frame, or one line."""
+
+    _load_broken_copy("neus", "cameras_sphere.npz", lambda path: _spoil_npz(path, data))
+
+
+@pytest.mark.parametrize("spoil, message", [
+    (lambda s: (s / "image" / "000001.png").unlink(), "2 images for the 3 cameras"),
+    (lambda s: (s / "mask" / "001.png").unlink(), "2 masks for the 3 images"),
+    (lambda s: (s / "cameras_sphere.npz").write_bytes(b"PK not a zip"), "not a readable .npz"),
+    (lambda s: np.savez(s / "cameras_sphere.npz", **{f"world_mat_{i}": np.zeros((4, 4)) for i in range(3)}),
+     "singular"),
+    (lambda s: np.savez(s / "cameras_sphere.npz", scale_mat_0=np.eye(4)), "no world_mat_0"),
+])
+def test_bad_neus_folders_are_one_line(tmp_path, spoil, message):
+    scene = _copy_scene(_template("neus"), tmp_path / "s", "cameras_sphere.npz")
+    for sub in ("image", "mask"):  # their own copies, so that a file can be removed
+        for f in (scene / sub).iterdir():
+            data = f.read_bytes()
+            f.unlink()
+            f.write_bytes(data)
+    spoil(scene)
+    r = _invoke(["fit", str(scene), "-o", str(tmp_path / "x.doodle")])
+    assert r.exit_code == 2 and re.search(message, r.output) and r.output.strip().count("\n") == 0, r.output
 
 
 @FUZZ

@@ -253,3 +253,24 @@ def test_quiet_pycolmap_keeps_colmaps_chatter_off_the_terminal_but_not_errors(ca
     assert "a real error" in printed.err
     pycolmap.bundle_adjustment(rec, options)  # and the terminal is the terminal again
     assert "Global bundle adjustment" in capfd.readouterr().err
+
+
+def test_a_neus_folder_projects_as_its_matrices_say(tmp_path):
+    """NeuS/IDR: a point x of the unit sphere's frame lands where world_mat @ scale_mat @ [x, 1] puts it (the
+    loaded cameras live in the sphere's frame), whatever scale the projection matrix was written at; the given
+    masks are the photos' masks."""
+    from helpers import NEUS_SCALE, neus_copy
+
+    folder, src = neus_copy(tmp_path, n=3, size=48)
+    assert detect_format(folder) == "neus"
+    scene = load_scene(folder)
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-0.5, 0.5, (50, 3))
+    world = x @ NEUS_SCALE[:3, :3].T + NEUS_SCALE[:3, 3]
+    for cam, truth in zip(scene.cameras, src.cameras):
+        uv, depth = cam.project(x)
+        uv_true, _ = truth.project(world)
+        assert np.abs(uv - uv_true).max() < 1e-6
+        assert (depth > 0).all()
+        assert np.linalg.det(cam.R) == pytest.approx(1.0)
+    assert all((m == t).all() for m, t in zip(scene.masks, src.masks))

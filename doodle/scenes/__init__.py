@@ -11,7 +11,8 @@ from .transforms import load_nerf_synthetic, load_nerfstudio
 
 
 def detect_format(root: str | Path) -> str:
-    """``"nerf-synthetic"``, ``"nerfstudio"`` or ``"colmap"`` for a scene folder.
+    """``"nerf-synthetic"``, ``"neus"`` (NeuS/IDR: ``cameras_sphere.npz``), ``"nerfstudio"``, ``"colmap"`` or
+    ``"photos"`` for a scene folder.
 
     Raises:
         SceneError: if the folder does not exist or holds none of them.
@@ -21,6 +22,10 @@ def detect_format(root: str | Path) -> str:
         raise SceneError(f"{root}: not a folder")
     if any((root / f"transforms_{s}.json").exists() for s in ("train", "val", "test")):
         return "nerf-synthetic"
+    from .neus import is_neus
+
+    if is_neus(root):
+        return "neus"
     if (root / "transforms.json").exists():
         return "nerfstudio"
     if find_model_dir(root) is not None:
@@ -32,7 +37,8 @@ def detect_format(root: str | Path) -> str:
         return "photos"
     if photos:
         raise SceneError(f"{root}: structure-from-motion needs at least 3 photos, found {len(photos)}")
-    raise SceneError(f"{root}: no transforms_train.json, transforms.json, COLMAP model or photos found")
+    raise SceneError(f"{root}: no transforms_train.json, cameras_sphere.npz, transforms.json, COLMAP model or photos "
+                     "found")
 
 
 def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -> Scene:
@@ -46,6 +52,10 @@ def load_scene(root: str | Path, split: str = "train", downscale: float = 1.0) -
         from .photos import load_photos
 
         return load_photos(root, downscale)
+    if fmt == "neus":
+        from .neus import load_neus
+
+        return load_neus(root, downscale)
     return load_colmap(root, downscale=downscale)
 
 
@@ -61,6 +71,10 @@ def load_scene_at_size(root: str | Path, split: str = "train", size: int | None 
         return load_photos(root, size=size)
     if fmt == "colmap":
         return load_colmap(root, size=size)
+    if fmt == "neus":
+        from .neus import load_neus
+
+        return load_neus(root, size=size)
     cams = load_cameras(root, split)
     largest = max(max(c.width, c.height) for c in cams)
     return load_scene(root, split, downscale=max(1.0, largest / size))
