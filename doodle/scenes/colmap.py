@@ -15,6 +15,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +99,7 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
     images_dir = Path(images_dir) if images_dir else root / "images"
     if masks_dir is None and (root / "masks").is_dir():
         masks_dir = root / "masks"
-    cameras, images, masks, paths = [], [], [], []
+    cameras, images, masks, paths, lens = [], [], [], [], []
     for image_id in ids:
         im = rec.image(image_id)
         cam = rec.camera(im.camera_id)
@@ -129,11 +130,13 @@ def load_colmap(root: str | Path, images_dir: str | Path | None = None, masks_di
         images.append(rgb)
         masks.append(mask)
         paths.append(path)
+        lens.append(None if cam.model.name in PINHOLE_MODELS else partial(undistort_mask, cam))
     has_masks = all(m is not None for m in masks)
     c0 = rec.camera(rec.image(ids[0]).camera_id)
     frame = estimate_frame(cameras, points=pts if len(pts) else None, full_size=(c0.width, c0.height))
     return Scene(cameras, images, frame, masks if has_masks else None, pts if len(pts) else None, str(root), paths,
-                 point_views=views if len(pts) and views is not None else None)
+                 point_views=views if len(pts) and views is not None else None,
+                 lens=lens if any(f is not None for f in lens) else None)
 
 
 def _read_model(model_dir: Path):
@@ -200,6 +203,12 @@ def _check_pose(R: np.ndarray, t: np.ndarray, name: str, model_dir: Path) -> Non
     if not (np.isfinite(R).all() and np.isfinite(t).all() and np.abs(t).max() <= MAX_COORD
             and np.abs(R).max() <= 1 + 1e-3 and abs(np.linalg.det(R) - 1) < 1e-3):  # (entries first: no det overflow)
         raise SceneError(f"{model_dir}: image {name} has an invalid pose (rotation or translation)")
+
+
+def undistort_mask(cam, mask: np.ndarray) -> np.ndarray:
+    """A mask drawn on a photo taken through COLMAP camera ``cam`` (resized to any size), resampled to the
+    pinhole view :func:`undistort` makes of that photo at the mask's size."""
+    return undistort(None, mask, cam, (mask.shape[1], mask.shape[0]))[1]
 
 
 def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[int, int]

@@ -102,9 +102,18 @@ def read_image(path: Path, size: tuple[int, int] | None = None, expect: tuple[in
 
 
 def read_mask(path: Path, size: tuple[int, int]) -> np.ndarray:
-    """Read a mask image (any mode; non-zero = object) at ``size = (width, height)``."""
+    """Read a mask image (any mode; non-zero = object) at ``size = (width, height)``.
+
+    Raises:
+        SceneError: unreadable, or its shape is the view's turned a quarter (portrait for a landscape view or
+            the reverse): a mask saved in another orientation than its photo would be squashed, not aligned.
+    """
     try:
         with open_image(path) as im:
+            w, h = im.size
+            if (w - h) * (size[0] - size[1]) < 0 and abs(w / h - size[0] / size[1]) > 0.05 * size[0] / size[1]:
+                raise SceneError(f"{path}: mask is {w}x{h} but its view is {size[0]}x{size[1]}; save it in the "
+                                 "photo's orientation (upright, as the photo is shown)")
             im = im.convert("L")
             if im.size != size:
                 im = im.resize(size, Image.Resampling.BOX)

@@ -138,5 +138,5 @@ def load_neus(root: str | Path, downscale: float = 1.0, size: int | None = None)
         rgbs.append(rgb)
         masks.append(read_mask(masks_files[i], (cam.width, cam.height)) if masks_files else alpha)
     given = masks if all(m is not None for m in masks) else None
-    frame = estimate_frame(cameras, full_size=full)
+    frame = estimate_frame(cameras, full_size=full, sphere=(np.zeros(3), 1.0))  # the layout's unit sphere
     return Scene(cameras, rgbs, frame, given, None, str(root), images)

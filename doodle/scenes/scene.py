@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,6 +39,10 @@ class Scene:
     point_views: list[np.ndarray] | None = None
     """Optional, per point: the indices of the views that observed it (SfM tracks); a point is surely visible
     in those views. ``None`` when the points came without tracks."""
+    lens: list[Callable[[np.ndarray], np.ndarray] | None] | None = None
+    """Optional, per view: maps a mask drawn on the photo (resized to the view's size) into the view's pinhole
+    geometry, for photos taken through a distorting lens and undistorted on loading; ``None`` (for all views or
+    one) when the photo's geometry is the view's."""
 
     def __len__(self) -> int:
         return len(self.cameras)
@@ -54,6 +59,7 @@ class Scene:
             [self.cameras[i] for i in idx], [self.images[i] for i in idx], self.frame,
             [self.masks[i] for i in idx] if self.masks is not None else None, self.points, self.source,
             [self.image_paths[i] for i in idx] if self.image_paths else [], self.masks_automatic, views,
+            [self.lens[i] for i in idx] if self.lens is not None else None,
         )
 
 
@@ -73,7 +79,7 @@ def working_scene(scene: Scene, size: int) -> Scene:
                 m = np.asarray(Image.fromarray(m.astype(np.uint8) * 255).resize((c.width, c.height), Image.Resampling.BOX)) > 127
             out_masks.append(m)
     return Scene(out_cams, out_images, scene.frame, out_masks if scene.masks is not None else None, scene.points,
-                 scene.source, scene.image_paths, scene.masks_automatic, scene.point_views)
+                 scene.source, scene.image_paths, scene.masks_automatic, scene.point_views, scene.lens)
 
 
 def closest_point_to_axes(cameras: list[Camera]) -> np.ndarray:
@@ -120,10 +126,13 @@ def camera_up(cameras: list[Camera]) -> np.ndarray:
 
 
 def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: np.ndarray | None = None,
-                   full_size: tuple[float, float] | None = None) -> SceneFrame:
+                   full_size: tuple[float, float] | None = None,
+                   sphere: tuple[np.ndarray, float] | None = None) -> SceneFrame:
     """Scene frame from camera poses: ``up`` is :func:`camera_up` unless given; ``center`` is the point
     nearest all optical axes; ``radius`` the largest sphere around it that every camera sees whole (its
-    median), shrunk to the 98th percentile of point distances when SfM points are given.
+    median), shrunk to the 98th percentile of point distances when SfM points are given. A layout that
+    says where the object is (``sphere``: center and radius of a sphere holding it) centres the frame there,
+    the radius capped by that sphere's.
     The default orbit camera takes the median distance, field of view and elevation, and view 0 the first
     camera's azimuth; its image size is the first photo's ``full_size`` (before any downscaling; default: the
     first camera's) with the long side capped at 1024 px.
@@ -133,12 +142,14 @@ def estimate_frame(cameras: list[Camera], up: np.ndarray | None = None, points: 
     if up is None:
         up = camera_up(cameras)
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
-    center = closest_point_to_axes(cameras)
+    center = closest_point_to_axes(cameras) if sphere is None else np.asarray(sphere[0], dtype=np.float64)
     dists = np.array([np.linalg.norm(c.center - center) for c in cameras])
     half_fov = np.array([math.atan(0.5 * min(c.width / c.fx, c.height / c.fy)) for c in cameras])
     radius = float(np.median(dists * np.sin(half_fov)))
     if points is not None and len(points) >= 10:
         radius = min(radius, float(np.percentile(np.linalg.norm(points - center, axis=1), 98)))
+    if sphere is not None:
+        radius = min(radius, float(sphere[1]))
     frame = SceneFrame(up=up, center=center, radius=radius)
     angles = [azimuth_elevation(c.center, frame) for c in cameras]
     c0 = cameras[0]

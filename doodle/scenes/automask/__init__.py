@@ -210,6 +210,8 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
     if str(how) != "auto":
         masks = read_mask_folder(Path(how), [c.name for c in scene.cameras], [(c.width, c.height) for c in scene.cameras])
         automatic = (Path(how) / MARKER).is_file()
+        if scene.lens is not None and not automatic:  # drawn on the photos: into the undistorted views
+            masks = [m if f is None else f(m) for m, f in zip(masks, scene.lens)]
         log(f"masks from {how}{' (automatic)' if automatic else ''}: object covers "
             f"{100 * np.mean([m.mean() for m in masks]):.0f}% of the image on average")
         return replace(scene, masks=masks, masks_automatic=automatic)
