@@ -90,6 +90,22 @@ def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256
     return out
 
 
+def boundary_recall(strokes: StrokeSet, cameras: list, boundaries: list[np.ndarray], tau: float = 2.0) -> float:
+    """Share of given boundary pixels (``bool (H, W)`` per camera, at the camera's size: painted boundaries,
+    eyes and patches, from :func:`doodle.samples.painted_boundaries`) within ``tau`` px of the drawn strokes,
+    over all the cameras (pixels of every view counted alike)."""
+    drawings = draw_many(strokes, list(cameras), DrawOptions(tolerance=0.25))
+    near = total = 0
+    for cam, drawing, truth in zip(cameras, drawings, boundaries):
+        if not truth.any():
+            continue
+        stroke = _inked(to_svg(drawing, 0.25), (cam.width, cam.height))
+        total += int(truth.sum())
+        if stroke.any():
+            near += int((ndimage.distance_transform_edt(~stroke)[truth] <= tau).sum())
+    return near / total if total else float("nan")
+
+
 def evaluate_svgs(svgs: list[str] | list[Path], scene: Scene, tau: float = 2.0, size: int = 256) -> dict[str, Any]:
     """The same line metrics for any line drawings, one SVG (text, or a file) per camera of ``scene`` in
     order (a mesh-based drawing such as Blender Freestyle's, a hand drawing), each drawn over the whole image:

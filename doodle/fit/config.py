@@ -55,13 +55,20 @@ class DetailLevel:
     superquadrics: int
     superquadric_gain: float
     curve_gain: float
+    features: int = 0
+    """At most this many features on smooth faces (eyes, a muzzle, buttons, patches), chosen by salience
+    (:mod:`doodle.fit.discovery.salience`)..."""
+    open_features: bool = False
+    """...closed ones only (rings: an eye, a button, a patch), or open marks as well (secondary lines)."""
 
 
 DETAIL_LEVELS: dict[str, DetailLevel] = {
-    "low": DetailLevel(curves=12, outline_curves=24, superquadrics=6, superquadric_gain=0.02, curve_gain=0.004),
-    "medium": DetailLevel(curves=40, outline_curves=24, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015),
+    "low": DetailLevel(curves=12, outline_curves=24, superquadrics=6, superquadric_gain=0.02, curve_gain=0.004,
+                       features=3),
+    "medium": DetailLevel(curves=40, outline_curves=24, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015,
+                          features=8),
     "high": DetailLevel(curves=AUTO_MAX_CURVES, outline_curves=AUTO_OUTLINE_CURVES, superquadrics=12,
-                        superquadric_gain=0.005, curve_gain=0.0005),
+                        superquadric_gain=0.005, curve_gain=0.0005, features=24, open_features=True),
 }
 """``--detail``: at ``medium`` (the default) a stroke file of an object like a teapot or a cow takes under 2 kB."""
 
@@ -129,6 +136,10 @@ class FitConfig:
     max_superquadrics: int | None = option(
         "abstraction", None, "At most this many superquadrics with --superquadrics auto [default: the --detail "
         "level's].", kind=int, limits=(0, 64))
+    max_features: int | None = option(
+        "abstraction", None, "At most this many features inside the outline (eyes, a muzzle, buttons, patches: lines "
+        "on smooth faces), chosen by salience, not length [default: the --detail level's].", kind=int,
+        limits=(0, 256), flag="--features")
     thin: float = option(
         "abstraction", 0.06, "Parts thinner than this share of the object's size (legs, cables, handles) are "
         "drawn by curves, never by superquadrics.", kind=float, limits=(0.0, 0.5))
@@ -224,6 +235,14 @@ class FitConfig:
     def sq_limit(self) -> int:
         """The most superquadrics ``superquadrics="auto"`` fits."""
         return self.level.superquadrics if self.max_superquadrics is None else int(self.max_superquadrics)
+
+    @property
+    def features(self) -> int:
+        """Features on smooth faces chosen by salience beside the structural curves: none for a fixed number of
+        curves or without the texture judgement (nothing is marked as lying on a smooth face)."""
+        if self.curves != "auto" or not self.texture:
+            return 0
+        return self.level.features if self.max_features is None else int(self.max_features)
 
     @property
     def min_gain(self) -> float:

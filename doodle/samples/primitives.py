@@ -38,8 +38,43 @@ def _gores(p: np.ndarray) -> np.ndarray:
     return (np.sin(6 * lon) > 0.55) ^ (np.abs(p[:, 2]) < 0.12 * r)
 
 
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _spots(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """``(K,)`` points ``(K, 3)`` whose direction from the local origin lies within ``radii`` (radians) of one
+    of the unit directions ``centres`` ``(C, 3)``: round spots painted on a round part."""
+    cos = _unit(p) @ centres.T
+    return (cos > np.cos(radii)[None]).any(axis=1)
+
+
+# a face looking along local +x: two eyes up on its sides, a muzzle over its front with two nostrils in it
+_EYES = _unit([[0.75, 0.5, 0.45], [0.75, -0.5, 0.45]])
+_NOSTRILS = _unit([[1.0, 0.25, -0.3], [1.0, -0.25, -0.3]])
+# a hide's patches: spots of different sizes, some overlapping into one irregular patch
+_PATCHES = _unit([[0.35, 0.75, 0.55], [0.15, 0.85, 0.2], [-0.55, 0.55, 0.6], [-0.4, -0.8, 0.45], [0.3, -0.85, 0.35],
+                  [-0.1, -0.4, 0.9]])
+_PATCH_RADII = np.radians([24.0, 16.0, 22.0, 26.0, 17.0, 14.0])
+
+
+def _face(p: np.ndarray) -> np.ndarray:
+    """A cartoon face on a head looking along local +x: two eyes, and a muzzle round its front whose two
+    nostrils are left unpainted (each a closed boundary a person draws first)."""
+    eyes = _spots(p, _EYES, np.radians([15.0, 15.0]))
+    muzzle = (_unit(p) @ _unit([1.0, 0.0, -0.35])) > math.cos(math.radians(32.0))
+    nostrils = _spots(p, _NOSTRILS, np.radians([8.0, 8.0]))
+    return eyes | (muzzle & ~nostrils)
+
+
+def _patches(p: np.ndarray) -> np.ndarray:
+    """Irregular dark patches on a hide (see :data:`_PATCHES`)."""
+    return _spots(p, _PATCHES, _PATCH_RADII)
+
+
 #: Printed patterns by name: ``f(local points (K, 3)) → (K,)`` True where ink is.
-PRINTS = {"stripes": _stripes, "gores": _gores}
+PRINTS = {"stripes": _stripes, "gores": _gores, "face": _face, "patches": _patches}
 #: The colour factor of printed ink: dark on any colour, a strong edge (as a decal or label is).
 PRINT_INK = 0.3
 

@@ -101,3 +101,25 @@ def render_rgba(primitives: list[Primitive], camera: Camera, supersample: int = 
     rgb = np.where(alpha > 0, rgba[..., :3] / np.maximum(alpha, 1e-6), 0.0)  # un-premultiply
     out = np.concatenate([np.clip(rgb, 0, 1), alpha], -1)
     return (out * 255 + 0.5).astype(np.uint8)
+
+
+def painted_boundaries(primitives: list[Primitive], camera: Camera) -> np.ndarray:
+    """``bool (H, W)``: the pixels of ``camera`` where a print's ink meets the bare surface of the same part,
+    as the view sees them (occluded paint is not there): the boundaries a sketch of the painted features
+    (eyes, a muzzle, patches) draws. One ray per pixel; a pixel counts when a 4-neighbour hits the same
+    primitive with the other inking."""
+    H, W = camera.height, camera.width
+    o, d = camera.rays()
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    t, _, idx = cast(primitives, o, d)
+    ink = printed(primitives, o + np.where(np.isfinite(t), t, 0)[:, None] * d, idx) < 1
+    idx, ink = idx.reshape(H, W), ink.reshape(H, W)
+    out = np.zeros((H, W), bool)
+    for axis in (0, 1):
+        a = [slice(None), slice(None)]
+        b = [slice(None), slice(None)]
+        a[axis], b[axis] = slice(1, None), slice(None, -1)
+        meet = (idx[tuple(a)] == idx[tuple(b)]) & (idx[tuple(a)] >= 0) & (ink[tuple(a)] != ink[tuple(b)])
+        out[tuple(a)] |= meet
+        out[tuple(b)] |= meet
+    return out

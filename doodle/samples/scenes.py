@@ -144,8 +144,18 @@ def cow() -> list[Primitive]:
     ]
 
 
+def calf() -> list[Primitive]:
+    """The toy cow painted as a cartoon: eyes and a muzzle with nostrils on its head, dark patches on its hide.
+    A person sketching it draws the eyes and the muzzle first, then the patches; the ground truth's
+    ``painted`` boundaries (:func:`painted_boundaries`) measure how many of them a sketch draws."""
+    parts = cow()
+    parts[0].print, parts[1].print = "patches", "face"
+    return parts
+
+
 SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp, "tripod": tripod,
-                                                    "mug": mug, "parcel": parcel, "teapot": teapot, "cow": cow}
+                                                    "mug": mug, "parcel": parcel, "teapot": teapot, "cow": cow,
+                                                    "calf": calf}
 
 
 def visible_feature_edges(primitives: list[Primitive], max_len: float = 0.04, margin: float = 2e-3) -> np.ndarray:

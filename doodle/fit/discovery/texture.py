@@ -73,8 +73,15 @@ def smooth_face_share(controls: np.ndarray, grid: VoxelGrid, coherence: np.ndarr
     return ((c > SMOOTH_COHERENCE) & (s > SURFACE_WEIGHT)).reshape(len(controls), samples).mean(axis=1)
 
 
+def smooth_shares(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray) -> np.ndarray:
+    """``(N,)`` the share of each cubic ``(N, 4, 3)`` on smooth faces of the hull ``occupied``: above
+    :data:`SMOOTH_SHARE` it lies on a smooth face (:func:`on_smooth_faces`); near 1 it lies on one whole, as
+    paint does, not across a junction of parts (:mod:`.salience`)."""
+    coherence, surface = hull_coherence(occupied)
+    return smooth_face_share(controls, grid, coherence, surface)
+
+
 def on_smooth_faces(controls: np.ndarray, grid: VoxelGrid, occupied: np.ndarray) -> np.ndarray:
     """``(N,)`` bool: the cubics ``(N, 4, 3)`` that lie on a smooth face of the hull ``occupied`` (see the
     module docstring)."""
-    coherence, surface = hull_coherence(occupied)
-    return smooth_face_share(controls, grid, coherence, surface) > SMOOTH_SHARE
+    return smooth_shares(controls, grid, occupied) > SMOOTH_SHARE

@@ -77,7 +77,8 @@ def choose_beside(state: FitState, sq: SuperquadricSet, polish: bool, log=lambda
     taken = outline_pixel_ids(cand, sq, state.frame, max(1, round(1.5 * ratio)), state.occluder) \
         if sq.drawn.any() else None
     return choose_curves(cand, cfg.max_curves, cfg.min_gain, taken, polish=polish, outline_curves=cfg.outline_curves,
-                         whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, log=log)
+                         whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
+                         open_features=cfg.level.open_features, log=log)
 
 
 def curves_beside(state: FitState, sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
