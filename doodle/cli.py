@@ -89,7 +89,7 @@ def cli() -> None:
                    "than the object).")
 def sample(name: str, out_dir: Path, n_train: int, n_test: int, size: int, force: bool, capture: bool,
            floor: str) -> None:
-    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel, teapot, cow, calf) as a NeRF-synthetic folder.
+    """Write procedural sample scene NAME (chair, snowman, lamp, tripod, mug, parcel, teapot, cow, calf, mouse) as a NeRF-synthetic folder.
 
     The folder holds RGBA renders from the upper hemisphere, transforms_{train,test}.json and
     ground_truth.json (primitives and visible feature edges). With --capture, a COLMAP project
@@ -678,7 +678,7 @@ def eval_cmd(strokes: Path, scene_dir: Path, split: str, tau: float, size: int, 
 @cli.command(short_help="Run the whole pipeline on a built-in scene.")
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("doodle-demo"),
               show_default=True, help="Folder for everything the demo makes.")
-@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel", "teapot", "cow", "calf"]),
+@click.option("--scene", type=click.Choice(["chair", "snowman", "lamp", "tripod", "mug", "parcel", "teapot", "cow", "calf", "mouse"]),
               default="snowman", show_default=True, help="The procedural scene to run on.")
 def demo(out_dir: Path, scene: str) -> None:
     """Run the whole pipeline on a built-in procedural scene: render, fit, export, animate, evaluate."""

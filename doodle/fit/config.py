@@ -59,14 +59,15 @@ class DetailLevel:
     """At most this many features on smooth faces (eyes, a muzzle, buttons, patches), chosen by salience
     (:mod:`doodle.fit.discovery.salience`)..."""
     open_features: bool = False
-    """...closed ones only (rings: an eye, a button, a patch), or open marks as well (secondary lines)."""
+    """...closed ones only (rings: an eye, a button, a patch), or open marks as well after every ring (a mouse's
+    button seams: at ``medium`` its painted boundaries drawn went 0.692 → 0.859 with them, F 0.987 → 0.975)."""
 
 
 DETAIL_LEVELS: dict[str, DetailLevel] = {
     "low": DetailLevel(curves=12, outline_curves=24, superquadrics=6, superquadric_gain=0.02, curve_gain=0.004,
                        features=3),
     "medium": DetailLevel(curves=40, outline_curves=24, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015,
-                          features=8),
+                          features=8, open_features=True),
     "high": DetailLevel(curves=AUTO_MAX_CURVES, outline_curves=AUTO_OUTLINE_CURVES, superquadrics=12,
                         superquadric_gain=0.005, curve_gain=0.0005, features=24, open_features=True),
 }

@@ -73,8 +73,19 @@ def _patches(p: np.ndarray) -> np.ndarray:
     return _spots(p, _PATCHES, _PATCH_RADII)
 
 
+def _mouse(p: np.ndarray) -> np.ndarray:
+    """A computer mouse's shell looking along local +x: the seam between its two buttons and the one behind
+    them (thin dark lines over its top), and dark rubber grips on its sides."""
+    u = _unit(p)
+    top = u[:, 2] > 0.25
+    seam = top & (u[:, 0] > 0.2) & (np.abs(u[:, 1]) < 0.035)
+    back = top & (np.abs(u[:, 0] - 0.2) < 0.025)
+    grips = (np.abs(u[:, 1]) > 0.72) & (u[:, 2] < 0.3) & (np.abs(u[:, 0]) < 0.6)
+    return seam | back | grips
+
+
 #: Printed patterns by name: ``f(local points (K, 3)) → (K,)`` True where ink is.
-PRINTS = {"stripes": _stripes, "gores": _gores, "face": _face, "patches": _patches}
+PRINTS = {"stripes": _stripes, "gores": _gores, "face": _face, "patches": _patches, "mouse": _mouse}
 #: The colour factor of printed ink: dark on any colour, a strong edge (as a decal or label is).
 PRINT_INK = 0.3
 

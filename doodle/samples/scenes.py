@@ -153,9 +153,22 @@ def calf() -> list[Primitive]:
     return parts
 
 
+def mouse() -> list[Primitive]:
+    """A computer mouse facing +x: a rounded shell with the seams of its two buttons and rubber grips painted
+    on, and a scroll wheel standing out between the buttons. What a person draws inside its outline: the
+    seams, the wheel and the edge of the grips (the ground truth's painted boundaries, and the wheel's
+    edges)."""
+    return [
+        Ellipsoid(np.array([0.0, 0.0, -0.3]), axes=np.array([0.62, 0.36, 0.26]), color=(0.82, 0.82, 0.85),
+                  print="mouse"),
+        Cylinder(np.array([0.3, -0.02, -0.09]), R=_rot_z_to(np.array([0.0, 1.0, 0.0])), radius=0.075, height=0.04,
+                 color=(0.25, 0.25, 0.28)),
+    ]
+
+
 SCENES: dict[str, Callable[[], list[Primitive]]] = {"chair": chair, "snowman": snowman, "lamp": lamp, "tripod": tripod,
                                                     "mug": mug, "parcel": parcel, "teapot": teapot, "cow": cow,
-                                                    "calf": calf}
+                                                    "calf": calf, "mouse": mouse}
 
 
 def visible_feature_edges(primitives: list[Primitive], max_len: float = 0.04, margin: float = 2e-3) -> np.ndarray:

@@ -16,9 +16,9 @@ what they tell a viewer:
 - **symmetry**: a feature whose mirror image across a plane the object is symmetric about is also a feature
   (two eyes, two buttons) is one of a pair a viewer expects.
 
-:func:`choose_features` takes the most salient first, each only while at least half of it lies away from the
-curves drawn, up to the detail level's budget (``DetailLevel.features``): ``low`` draws the few most salient,
-``high`` the patches and secondary marks as well.
+:func:`choose_features` takes rings first, the most salient first, each only while at least half of it lies
+away from the features taken, up to the detail level's budget (``DetailLevel.features``): ``low`` draws the
+few most salient rings, ``medium`` open marks (seams) after them, ``high`` up to 24.
 """
 
 from __future__ import annotations
