@@ -67,6 +67,14 @@ def scenes(only: set[str] | None, tmp: Path):
                 (d / "ground_truth" if name == "abc" else None)
 
 
+def keep(folder: Path, name: str, strokes) -> None:
+    """Write ``strokes`` to ``folder/NAME.doodleb`` (``--keep``)."""
+    from doodle.strokes import write_strokes
+
+    folder.mkdir(parents=True, exist_ok=True)
+    write_strokes(folder / f"{name}.doodleb", strokes)
+
+
 def views_png(strokes, test, picks=(0, 3, 6)) -> "Image.Image":
     from PIL import Image
 
@@ -121,10 +129,7 @@ def main() -> None:
                       f"{m['line_precision']:6.3f} {m['silhouette_recall']:6.3f} {m['f_score']:6.3f}{extra}",
                       flush=True)
                 if args.keep:
-                    from doodle.strokes import write_strokes
-
-                    args.keep.mkdir(parents=True, exist_ok=True)
-                    write_strokes(args.keep / f"{name}-{c}.doodleb", s)
+                    keep(args.keep, f"{name}-{c}", s)
                 if args.sheet:
                     rows.append(views_png(s, test))
                 if args.figure:

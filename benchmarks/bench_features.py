@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench_abstraction import photo, views_png  # the same figure cells as the abstraction's
+from bench_abstraction import keep, photo, views_png  # the same figure cells and files as the abstraction's
 from doodle.evaluate import boundary_recall, evaluate
 from doodle.fit import FitConfig, fit
 from doodle.samples import load_ground_truth, painted_boundaries, write_sample
@@ -65,10 +65,7 @@ def main() -> None:
                       f"{painted:7.3f} {m['line_precision']:6.3f} {m['silhouette_recall']:6.3f} {m['f_score']:6.3f}",
                       flush=True)
                 if args.keep:
-                    from doodle.strokes import write_strokes
-
-                    args.keep.mkdir(parents=True, exist_ok=True)
-                    write_strokes(args.keep / f"{name}-{level}.doodleb", s)
+                    keep(args.keep, f"{name}-{level}", s)
                 if args.figure:
                     row.append(views_png(s, test, picks))
             rows.append(row)

@@ -49,6 +49,13 @@ def _inked(svg: str, size: tuple[int, int] | None = None) -> np.ndarray:
     return svg_to_array(svg, "white", size)[..., :3].mean(-1) < 160
 
 
+def drawn_pixels(strokes: StrokeSet, cameras) -> list[np.ndarray]:
+    """The pixels the strokes ink in each camera's view ``bool (H, W)``, drawn as the metrics see them (the
+    exporter's SVG at a quarter-pixel tolerance, rasterised at the camera's size)."""
+    drawings = draw_many(strokes, list(cameras), DrawOptions(tolerance=0.25))
+    return [_inked(to_svg(drawing, 0.25)) for drawing in drawings]
+
+
 def natural_sorted(paths) -> list[Path]:
     """Paths in name order with numbers compared as numbers (``fs_2`` before ``fs_10``): the order of a
     folder of drawings, one per view.
@@ -66,11 +73,10 @@ def evaluate(strokes: StrokeSet, scene: Scene, tau: float = 2.0, size: int = 256
     """Metrics over all cameras of ``scene`` (images resized so the larger side is ``size`` px); with
     ``truth`` (:class:`~doodle.curvemetrics.GroundTruthCurves`) also the 3D curve metrics under ``"curves_3d"``."""
     work = working_scene(scene, size)
-    drawings = draw_many(strokes, work.cameras, DrawOptions(tolerance=0.25))
     rows = []
-    for k, (cam, img, drawing) in enumerate(zip(work.cameras, work.images, drawings)):
+    for k, (cam, img, stroke) in enumerate(zip(work.cameras, work.images, drawn_pixels(strokes, work.cameras))):
         mask = work.masks[k] if work.masks is not None else None
-        row = _view_row(cam.name or str(k), _inked(to_svg(drawing, 0.25)), img, mask, tau)
+        row = _view_row(cam.name or str(k), stroke, img, mask, tau)
         if mask is not None and len(strokes.superquadrics):
             u = union_mask(strokes.superquadrics, cam)
             row["silhouette_iou"] = float((u & mask).sum() / max((u | mask).sum(), 1))
@@ -94,12 +100,10 @@ def boundary_recall(strokes: StrokeSet, cameras: list, boundaries: list[np.ndarr
     """Share of given boundary pixels (``bool (H, W)`` per camera, at the camera's size: painted boundaries,
     eyes and patches, from :func:`doodle.samples.painted_boundaries`) within ``tau`` px of the drawn strokes,
     over all the cameras (pixels of every view counted alike)."""
-    drawings = draw_many(strokes, list(cameras), DrawOptions(tolerance=0.25))
     near = total = 0
-    for cam, drawing, truth in zip(cameras, drawings, boundaries):
+    for stroke, truth in zip(drawn_pixels(strokes, cameras), boundaries):
         if not truth.any():
             continue
-        stroke = _inked(to_svg(drawing, 0.25), (cam.width, cam.height))
         total += int(truth.sum())
         if stroke.any():
             near += int((ndimage.distance_transform_edt(~stroke)[truth] <= tau).sum())

@@ -47,6 +47,12 @@ def printed(primitives: list[Primitive], points: np.ndarray, idx: np.ndarray) ->
     return out
 
 
+def _ink_at_hits(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray, t: np.ndarray,
+                 idx: np.ndarray) -> np.ndarray:
+    """:func:`printed` at the hits of rays ``(K, 3)`` at distances ``t`` (``inf``: a miss) on primitives ``idx``."""
+    return printed(primitives, origins + np.where(np.isfinite(t), t, 0)[:, None] * dirs, idx)
+
+
 def _shade(primitives: list[Primitive], dirs: np.ndarray, n: np.ndarray, idx: np.ndarray,
            ink: np.ndarray | None = None) -> np.ndarray:
     """Premultiplied RGBA ``(K, 4)`` of ray hits (Lambert, two world lights plus ambient), times the print's
@@ -68,7 +74,7 @@ def shade_rays(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarra
     across primitive and face boundaries (and the background), and whether each hit is inked by a print
     ``(K,)`` bool."""
     t, n, idx = cast(primitives, origins, dirs)
-    ink = printed(primitives, origins + np.where(np.isfinite(t), t, 0)[:, None] * dirs, idx)
+    ink = _ink_at_hits(primitives, origins, dirs, t, idx)
     face = (idx + 1) * 1000 + np.round(n * 4).astype(int) @ np.array([1, 10, 100])
     return _shade(primitives, dirs, n, idx, ink), face, ink < 1
 
@@ -112,14 +118,11 @@ def painted_boundaries(primitives: list[Primitive], camera: Camera) -> np.ndarra
     o, d = camera.rays()
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
     t, _, idx = cast(primitives, o, d)
-    ink = printed(primitives, o + np.where(np.isfinite(t), t, 0)[:, None] * d, idx) < 1
+    ink = _ink_at_hits(primitives, o, d, t, idx) < 1
     idx, ink = idx.reshape(H, W), ink.reshape(H, W)
     out = np.zeros((H, W), bool)
-    for axis in (0, 1):
-        a = [slice(None), slice(None)]
-        b = [slice(None), slice(None)]
-        a[axis], b[axis] = slice(1, None), slice(None, -1)
-        meet = (idx[tuple(a)] == idx[tuple(b)]) & (idx[tuple(a)] >= 0) & (ink[tuple(a)] != ink[tuple(b)])
-        out[tuple(a)] |= meet
-        out[tuple(b)] |= meet
+    for a, b in ((np.s_[1:, :], np.s_[:-1, :]), (np.s_[:, 1:], np.s_[:, :-1])):  # each pixel and the one above, left
+        meet = (idx[a] == idx[b]) & (idx[a] >= 0) & (ink[a] != ink[b])
+        out[a] |= meet
+        out[b] |= meet
     return out

@@ -419,8 +419,9 @@ class Traces:
     """With the sight lines' ``free`` voxels and the depth maps that leave them out."""
     controls: np.ndarray
     """``(N, 4, 3)`` the feature cubics."""
-    smooth: np.ndarray | None
-    """``(N,)`` the feature cubics on smooth faces of the hull (``None``: not judged)."""
+    shares: np.ndarray | None
+    """``(N,)`` each feature cubic's share on smooth faces of the hull (:func:`.texture.smooth_shares`;
+    ``None``: not judged)."""
     rims: Rims | None
     """The views' contour curves (:func:`.rims.find_rims`), or ``None`` without contours."""
     boundaries: list[np.ndarray]
@@ -429,11 +430,14 @@ class Traces:
     polylines: int
     seconds: dict[str, float]
     texture: bool
-    shares: np.ndarray | None = None
-    """``(N,)`` each feature cubic's share on smooth faces (:func:`.texture.smooth_shares`)."""
     steps: np.ndarray | None = None
     """``(N,)`` the images' step across each cubic on a smooth face (:func:`.salience.albedo_steps`; 0 for the
     others)."""
+
+    @property
+    def smooth(self) -> np.ndarray | None:
+        """``(N,)`` the feature cubics on smooth faces of the hull (``None``: not judged)."""
+        return None if self.shares is None else self.shares > SMOOTH_SHARE
 
 
 @dataclass
@@ -534,8 +538,7 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
         rims = find_rims(ev.cameras, scene.masks, ev.grid, ev.occupied, f.center, f.radius, min_length * size,
                          tolerance_voxels * h)
         seconds["contours"] = time.perf_counter() - t
-    return Traces(ev, controls, smooth, rims, boundaries, len(ridges.points), len(polys), seconds, texture, shares,
-                  steps)
+    return Traces(ev, controls, shares, rims, boundaries, len(ridges.points), len(polys), seconds, texture, steps)
 
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
@@ -671,7 +674,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     n_outline = max(len(chosen) - max_curves, 0)  # chosen for the outline alone
     painted: list = []
     painted_controls = np.zeros((0, 4, 3))
-    if features > 0 and cand.smooth is not None and cand.smooth.any():
+    if features > 0 and cand.smooth is not None and cand.smooth.any() and cand.traces.shares is not None:
         from .salience import duplicates, feature_cubics
 
         painted = _salient(cand, chosen, features, open_features)
@@ -720,25 +723,16 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
 
 
 def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool) -> list:
-    """Up to ``budget`` features among the candidates on smooth faces not ``chosen``, by salience (closed ones
-    only unless ``open_features``)."""
+    """Up to ``budget`` features among the traced cubics wholly on smooth faces and not ``chosen``, by salience
+    (closed ones only unless ``open_features``). Contour curves are never features: they are the outline's."""
     from .salience import choose_features, score_features
 
-    ev = cand.evidence
-    is_feature = cand.smooth & (cand.gates == 0) if len(cand.gates) else cand.smooth.copy()
-    shares = cand.traces.shares if cand.traces is not None else None
-    if shares is not None:  # wholly on a smooth face, as paint is: a ring round a leg's top is a junction
-        whole = np.zeros(len(is_feature), bool)
-        whole[: len(shares)] = shares >= PAINT_SHARE
-        is_feature &= whole
-    is_feature[chosen] = False
-    members = np.flatnonzero(is_feature)
-    steps = None
-    if cand.traces is not None and cand.traces.steps is not None:
-        steps = np.zeros(len(cand.controls))
-        steps[: len(cand.traces.steps)] = cand.traces.steps
-    scored = score_features(cand.controls, members, cand.controls[chosen], ev.score, ev.grid, ev.occupied,
-                            steps=steps)
+    ev, traces = cand.evidence, cand.traces
+    # wholly on a smooth face, as paint is: a ring round a leg's top, half on a crease, is a junction of parts
+    is_feature = traces.shares >= PAINT_SHARE
+    is_feature[[k for k in chosen if k < len(is_feature)]] = False  # the traced cubics come first
+    scored = score_features(cand.controls, np.flatnonzero(is_feature), cand.controls[chosen], ev.score, ev.grid,
+                            ev.occupied, steps=traces.steps)
     return choose_features(scored, budget, 2.0 * ev.grid.voxel, open_features)
 
 

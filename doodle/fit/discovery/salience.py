@@ -96,7 +96,8 @@ class Feature:
 
     @property
     def salience(self) -> float:
-        return (min(self.step / STEP_FULL, 1.0) * self.contrast * (OPEN_WEIGHT + (1 - OPEN_WEIGHT) * self.closed) / (1.0 + (self.size / SIZE_HALF) ** 2)
+        return (min(self.step / STEP_FULL, 1.0) * self.contrast * (OPEN_WEIGHT + (1 - OPEN_WEIGHT) * self.closed)
+                / (1.0 + (self.size / SIZE_HALF) ** 2)
                 * (0.5 + 0.5 * self.isolation) * (PAIR_BONUS if self.paired else 1.0))
 
 
@@ -176,6 +177,16 @@ def symmetry_planes(occupied: np.ndarray, grid, rng: np.random.Generator, sample
     return planes
 
 
+def _sides(field: np.ndarray, at: np.ndarray, across: np.ndarray, reach: float, order: int = 1
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """``field`` ``(H, W)`` read at pixel positions ``at`` ``(P, 2)`` (x, y; pixel centres at .5) moved ``reach``
+    px along ``across`` ``(P, 2)`` (unit) and against it."""
+    def read(q: np.ndarray) -> np.ndarray:
+        return ndimage.map_coordinates(field, [q[:, 1] - 0.5, q[:, 0] - 0.5], order=order, mode="nearest")
+
+    return read(at + reach * across), read(at - reach * across)
+
+
 def albedo_steps(controls: np.ndarray, cameras: list, images: list[np.ndarray], masks: list[np.ndarray],
                  depth: list[np.ndarray], margin: float, offset_px: float = 2.0, samples: int = 12) -> np.ndarray:
     """``(N,)`` for each cubic ``(N, 4, 3)``, the median over the views (``cameras`` with their ``images``,
@@ -206,18 +217,12 @@ def albedo_steps(controls: np.ndarray, cameras: list, images: list[np.ndarray], 
         seen = inside & (z <= deep[vi, ui] + margin)
         if not seen.any():
             continue
-        plus, minus = uv[seen] + offset_px * normal[seen], uv[seen] - offset_px * normal[seen]
-
-        def look(field: np.ndarray, q: np.ndarray, order: int = 1) -> np.ndarray:
-            return ndimage.map_coordinates(field, [q[:, 1] - 0.5, q[:, 0] - 0.5], order=order, mode="nearest")
-
+        at, across = uv[seen], normal[seen]
         # both sides on the object, a pixel beyond the offset too (the outline's antialiasing)
-        on = np.ones(int(seen.sum()), bool)
-        for q in (uv[seen] + (offset_px + 1) * normal[seen], uv[seen] - (offset_px + 1) * normal[seen]):
-            on &= look(mask.astype(np.float32), q, 0) > 0.5
-        step = np.abs(look(gray, plus) - look(gray, minus))[on]
-        wide = np.abs(look(gray, uv[seen] + 2 * offset_px * normal[seen])
-                      - look(gray, uv[seen] - 2 * offset_px * normal[seen]))[on]
+        ahead_in, behind_in = _sides(mask.astype(np.float32), at, across, offset_px + 1, order=0)
+        on = (ahead_in > 0.5) & (behind_in > 0.5)
+        step = np.abs(np.subtract(*_sides(gray, at, across, offset_px)))[on]
+        wide = np.abs(np.subtract(*_sides(gray, at, across, 2 * offset_px)))[on]
         # a step is as high two offsets out as one; a slope (shading) twice as high: count a step's height only
         step = np.where(step >= RAMP * wide, step, 0.0)
         who = owner[seen][on]
@@ -254,21 +259,20 @@ def score_features(controls: np.ndarray, members: np.ndarray, drawn: np.ndarray,
         iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
         step = STEP_FULL if steps is None else float(np.mean(steps[g]))
         out.append(Feature(g, contrast, closure(pts), extent / size, iso, pts, step=step))
-    _pair_up(out, controls, grid, occupied, rng or np.random.default_rng(0))
+    _pair_up(out, size, grid, occupied, rng or np.random.default_rng(0))
     return out
 
 
-def _pair_up(features: list[Feature], controls: np.ndarray, grid, occupied: np.ndarray,
-             rng: np.random.Generator) -> None:
+def _pair_up(features: list[Feature], size: float, grid, occupied: np.ndarray, rng: np.random.Generator) -> None:
     """Mark the features that have a mirror partner: the mirror image of its centre across a plane the hull is
     symmetric about (:func:`symmetry_planes`) lies within half its extent of another feature's centre, and the
-    two are of a similar size (not closure: the tracing may leave one of two eyes open)."""
+    two are of a similar size (not closure: the tracing may leave one of two eyes open). ``size``: the object's
+    size, which the features' sizes are shares of."""
     if len(features) < 2:
         return
     planes = symmetry_planes(occupied, grid, rng)
     if not planes:
         return
-    size = grid.voxel * float(np.linalg.norm(occupied.shape))
     centres = np.array([f.points.mean(0) for f in features])
     extent = np.array([f.size for f in features]) * size
     tree = cKDTree(centres)
@@ -294,8 +298,8 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
     pixels it explains), the feature is the better drawing and the curve gives way (:func:`duplicates`)."""
     if budget <= 0 or not features:
         return []
-    near: list[np.ndarray] = []
-    taken = []
+    taken: list[Feature] = []
+    near = None  # the samples of the features taken
     rings = [f for f in features if f.closed >= CLOSE_LOOP]
     marks = [f for f in features if f.closed < CLOSE_LOOP] if open_features else []
     for f in sorted(rings, key=lambda f: -f.salience) + sorted(marks, key=lambda f: -f.salience):
@@ -303,10 +307,10 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
             break
         if f.salience < MIN_SALIENCE or f.contrast < MIN_CONTRAST or f.step < MIN_STEP:
             continue
-        if near and (cKDTree(np.concatenate(near)).query(f.points)[0] > reach).mean() < MIN_NOVELTY:
+        if near is not None and (near.query(f.points)[0] > reach).mean() < MIN_NOVELTY:
             continue
         taken.append(f)
-        near.append(f.points)
+        near = cKDTree(np.concatenate([t.points for t in taken]))
     return taken
 
 
