@@ -32,6 +32,7 @@ from ...strokes.fitcurve import fit_cubics_many
 from ..volume.carve import VoxelGrid, project_points
 from .evidence import Evidence, curve_samples, depth_maps, edge_evidence
 from .facing import curve_normals
+from .hollows import Hollow, clear_of, find_hollows
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, Rims, find_rims
 from .sightlines import seen_through
@@ -92,6 +93,8 @@ STEP_VIEWS = 12
 #: the hull: paint lies on a face; a ring half on a crease is where two parts meet (the plain cow's leg tops,
 #: shares 0.3–0.7, cost line precision 0.948 → 0.914 as features; the calf's eyes and patches: 0.94–1).
 PAINT_SHARE = 0.8
+#: How far (share of the object's size) a hollow's ring may be moved out of the superquadrics that bulge over it.
+CLEAR_REACH = 0.1
 #: The ridge threshold's evidence level; a bridge across a gap needs half of it on average.
 BRIDGE_EVIDENCE = 0.15
 # the line pixels a stroke sample explains: its 3 × 3 neighbourhood (within 1.5 px)
@@ -433,6 +436,8 @@ class Traces:
     steps: np.ndarray | None = None
     """``(N,)`` the images' step across each cubic on a smooth face (:func:`.salience.albedo_steps`; 0 for the
     others)."""
+    hollows: list[Hollow] = field(default_factory=list)
+    """The dark hollows and patches the views agree on (:mod:`.hollows`), each a ring; empty without texture."""
 
     @property
     def smooth(self) -> np.ndarray | None:
@@ -531,6 +536,12 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
         steps[smooth] = albedo_steps(controls[smooth], [ev.cameras[v] for v in views],
                                      [scene.images[v] for v in views], [scene.masks[v] for v in views],
                                      [ev.depth[v] for v in views], ev.margin)
+    hollows: list[Hollow] = []
+    if texture:  # eye sockets, a nose, dark paint: rings the salience choice may draw
+        t = time.perf_counter()
+        hollows = find_hollows(ev.grid, ev.occupied if ev.free is None else ev.occupied & ~ev.free, ev.cameras,
+                               scene.images, scene.masks, ev.depth, tolerance_voxels * h)
+        seconds["hollows"] = time.perf_counter() - t
     rims = None
     if contours:
         t = time.perf_counter()
@@ -538,7 +549,8 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
         rims = find_rims(ev.cameras, scene.masks, ev.grid, ev.occupied, f.center, f.radius, min_length * size,
                          tolerance_voxels * h)
         seconds["contours"] = time.perf_counter() - t
-    return Traces(ev, controls, shares, rims, boundaries, len(ridges.points), len(polys), seconds, texture, steps)
+    return Traces(ev, controls, shares, rims, boundaries, len(ridges.points), len(polys), seconds, texture, steps,
+                  hollows)
 
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
@@ -603,12 +615,14 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
     seconds["coverage"] = time.perf_counter() - t
     timing = ("traced once, offered again" if reused else
               f"evidence {seconds['evidence']:.1f} s, curves {seconds['curves']:.1f} s, sight lines "
-              f"{seconds['sight lines']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if rims is not None else ""))
+              f"{seconds['sight lines']:.1f} s" + (f", contours {seconds['contours']:.1f} s" if rims is not None else "")
+              + (f", hollows {seconds['hollows']:.1f} s" if "hollows" in seconds else ""))
     free = ev.free
     log(f"discovery: {traces.ridge_points} ridge points → {traces.polylines} polylines → {len(controls) - n_rims} "
         f"candidate cubics" + (f" + {n_rims // k} contour cubics (each offered {k} way{'s' * (k > 1)})" if k else "")
         + (f"; {int(smooth.sum())} of the {len(controls)} on smooth faces: "
            + ("not taken, the hull draws their outline" if hull_outline else "outline only") if smooth is not None else "")
+        + (f"; {len(traces.hollows)} hollow{'s' * (len(traces.hollows) != 1)} seen dark" if traces.hollows else "")
         + f" ({timing})"
         + (f"; the views see through {free.sum() / max(ev.occupied.sum(), 1):.0%} of the hull"
            if free is not None and free.any() else ""))
@@ -618,7 +632,7 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
                   polish: bool = True, outline_curves: int = 0, whole_outline: float = 0.0, most_outline: int = 0,
-                  features: int = 0, open_features: bool = False,
+                  features: int = 0, open_features: bool = False, over=None, occlusion_margin: float = 0.0,
                   log: Callable[[str], None] = lambda m: None) -> Discovery:
     """Choose among the candidates (greedy marginal coverage, see :func:`select_strokes`), polish the chosen
     cubics on the evidence and snap their meeting ends (``polish``), and read their face normals off the hull.
@@ -641,6 +655,9 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         features: then up to this many features on smooth faces (eyes, a muzzle, patches, buttons), chosen by
             salience (:mod:`.salience`), not by pixels: closed ones only, or with ``open_features`` open marks
             too.
+        over: the superquadrics drawn (a :class:`~doodle.strokes.model.SuperquadricSet`), from behind which the
+            hollows' rings are moved (:func:`.hollows.clear_of`, with the drawing's ``occlusion_margin``);
+            ``None``: none.
     """
     t = time.perf_counter()
     ev = cand.evidence
@@ -673,13 +690,16 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         chosen, gains = [], []
     n_outline = max(len(chosen) - max_curves, 0)  # chosen for the outline alone
     painted: list = []
+    drawings: list[np.ndarray] = []
     painted_controls = np.zeros((0, 4, 3))
-    if features > 0 and cand.smooth is not None and cand.smooth.any() and cand.traces.shares is not None:
+    if features > 0 and cand.traces is not None and cand.traces.shares is not None and (
+            cand.smooth.any() or cand.traces.hollows):
         from .salience import duplicates, feature_cubics
 
-        painted = _salient(cand, chosen, features, open_features)
+        painted = _salient(cand, chosen, features, open_features, over, occlusion_margin)
         if painted:
-            painted_controls = np.concatenate([feature_cubics(f, cand.controls, TOLERANCE_VOXELS * h) for f in painted])
+            drawings = [feature_cubics(f, cand.controls, TOLERANCE_VOXELS * h) for f in painted]
+            painted_controls = np.concatenate(drawings)
             same = duplicates(cand.controls[chosen], painted, 2.0 * h)
             chosen = [k for k, dup in zip(chosen, same) if not dup]  # drawn by a feature
     n_painted = len(painted_controls)
@@ -704,6 +724,13 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     # (an eye's, 3 voxels across, came apart), and joining would chain it to the lines beside it
     controls = np.concatenate([controls, painted_controls])
     normals = curve_normals(controls, ev.grid, ev.occupied, ev.cameras, ev.depth, ev.margin)
+    # a hollow's ring faces the views that looked into it (the hull's normals at the surface bridging it are
+    # the bridge's)
+    at = len(controls) - len(painted_controls)
+    for f, d in zip(painted, drawings):
+        if f.hollow is not None:
+            normals[at:at + len(d)] = f.hollow.facing
+        at += len(d)
     # contour curves keep their place and their surface normal (both "faces" are the one smooth surface)
     rims = chosen[is_contour]
     controls = np.concatenate([controls, cand.controls[rims]])
@@ -722,9 +749,12 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
                      contour, source, outline_drawn)
 
 
-def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool) -> list:
-    """Up to ``budget`` features among the traced cubics wholly on smooth faces and not ``chosen``, by salience
-    (closed ones only unless ``open_features``). Contour curves are never features: they are the outline's."""
+def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool, over=None,
+             occlusion_margin: float = 0.0) -> list:
+    """Up to ``budget`` features among the traced cubics wholly on smooth faces and not ``chosen`` and the
+    hollows' rings, by salience (closed ones only unless ``open_features``). Contour curves are never features:
+    they are the outline's. A hollow's ring is moved out from behind the superquadrics ``over`` first, or left
+    out when no view would see it (:func:`.hollows.clear_of`)."""
     from .salience import choose_features, score_features
 
     ev, traces = cand.evidence, cand.traces
@@ -732,7 +762,19 @@ def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bo
     is_feature = traces.shares >= PAINT_SHARE
     is_feature[[k for k in chosen if k < len(is_feature)]] = False  # the traced cubics come first
     scored = score_features(cand.controls, np.flatnonzero(is_feature), cand.controls[chosen], ev.score, ev.grid,
-                            ev.occupied, steps=traces.steps)
+                            ev.occupied, steps=traces.steps, hollows=traces.hollows)
+    if over is not None:
+        size = ev.grid.voxel * float(np.linalg.norm(ev.grid.shape))
+        seen = []
+        for f in scored:
+            if f.hollow is not None:
+                moved = clear_of(f.cubics, f.hollow.facing, over, ev.cameras, CLEAR_REACH * size, ev.grid.voxel,
+                                 occlusion_margin)
+                if moved is None:
+                    continue
+                f.points, f.cubics = f.points + (moved[0, 0] - f.cubics[0, 0]), moved
+            seen.append(f)
+        scored = seen
     return choose_features(scored, budget, 2.0 * ev.grid.voxel, open_features)
 
 

@@ -92,7 +92,11 @@ class Feature:
     """``(P, 3)`` samples along its cubics."""
     paired: bool = False
     step: float = STEP_FULL
-    """The step in log brightness across it (:func:`albedo_steps`)."""
+    """The step in log brightness across it (:func:`albedo_steps`; a hollow's: how much darker it is)."""
+    cubics: np.ndarray | None = None
+    """``(K, 4, 3)`` its own drawing (a hollow's ring, :mod:`.hollows`); ``None``: drawn from its members."""
+    hollow: "Hollow | None" = None
+    """The hollow (:mod:`.hollows`) whose ring this is; ``None``: a feature of traced cubics."""
 
     @property
     def salience(self) -> float:
@@ -233,8 +237,10 @@ def albedo_steps(controls: np.ndarray, cameras: list, images: list[np.ndarray], 
 
 def score_features(controls: np.ndarray, members: np.ndarray, drawn: np.ndarray, score: np.ndarray, grid,
                    occupied: np.ndarray, rng: np.random.Generator | None = None,
-                   steps: np.ndarray | None = None) -> list[Feature]:
-    """Group the cubics ``members`` into features and score each (see the module docstring).
+                   steps: np.ndarray | None = None, hollows: list | None = None) -> list[Feature]:
+    """Group the cubics ``members`` into features, add the ``hollows``' rings (:mod:`.hollows`) and score each
+    (see the module docstring). A hollow's contrast is the share of the views that see it dark, its step how
+    much darker it is.
 
     Args:
         controls: ``(N, 4, 3)`` candidate cubics.
@@ -247,7 +253,8 @@ def score_features(controls: np.ndarray, members: np.ndarray, drawn: np.ndarray,
     size = h * float(np.linalg.norm(occupied.shape))
     touch = GROUP_VOXELS * h
     groups = group_features(controls, members, touch)
-    if not groups:
+    hollows = hollows or []
+    if not groups and not hollows:
         return []
     smooth = ndimage.gaussian_filter(score.astype(np.float32), 0.7)
     near = cKDTree(bezier_points(drawn, np.linspace(0, 1, _SAMPLES)).reshape(-1, 3)) if len(drawn) else None
@@ -259,6 +266,12 @@ def score_features(controls: np.ndarray, members: np.ndarray, drawn: np.ndarray,
         iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
         step = STEP_FULL if steps is None else float(np.mean(steps[g]))
         out.append(Feature(g, contrast, closure(pts), extent / size, iso, pts, step=step))
+    for hollow in hollows:
+        pts = hollow.points
+        extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
+        iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
+        out.append(Feature(np.zeros(0, int), hollow.share, closure(pts), extent / size, iso, pts,
+                           step=hollow.darkness, cubics=hollow.cubics, hollow=hollow))
     _pair_up(out, size, grid, occupied, rng or np.random.default_rng(0))
     return out
 
@@ -330,7 +343,9 @@ def feature_cubics(feature: Feature, controls: np.ndarray, tolerance: float, sam
     through its samples about their circle (:func:`_about_circle`; radius and height off the plane
     interpolated round the angle, so a gap the evidence left is closed along the feature's own curve, not by a
     chord), smoothed and fitted as one closed chain within ``tolerance``; otherwise its traced cubics
-    (``controls[feature.members]``)."""
+    (``controls[feature.members]``). A hollow's ring is its own (``feature.cubics``)."""
+    if feature.cubics is not None:
+        return feature.cubics
     if feature.closed < CLOSE_LOOP or len(feature.points) < 8:
         return controls[feature.members]
     angle, radius, height, (centre, u, v, n) = _about_circle(feature.points)

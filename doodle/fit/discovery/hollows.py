@@ -1,0 +1,251 @@
+"""Hollows: eye sockets, a nose, a mouth — what a person draws first inside a skull's outline.
+
+A visual hull bridges a hollow: no silhouette looks into it, so the hull's surface passes over its opening
+and the edge evidence on that surface (:mod:`.evidence`) is a blur of the rim seen from many sides. But
+little light reaches into a hollow, and every view that looks into one sees a region darker than the surface
+round it. Those dark regions are the hollow's silhouettes, as the masks are the object's: the voxels under
+the hull's surface that project into a dark region in most of the views that see their side of the object
+carve the hollow's own visual hull. Each one dark enough (:data:`DEEP`: little light reaches in) and of a size
+a viewer reads as a part is drawn as a ring: its outline seen from the views that saw into it, moved out to
+the surface that bridges its opening (:func:`_onto_surface`), facing those views.
+
+Paint as dark is found the same way and drawn the same; which rings are drawn is the salience choice's
+(:func:`.salience.choose_features`), beside the painted features.
+
+Dark is relative: a region whose log brightness lies :data:`DARKER` below the mean over the object within
+:data:`LOCAL_REACH` of the object's size (not below one global level: a hollow on the shaded side of an object
+is dark against that side). A dark region touching the outline is a shading side or a cast shadow, not a
+hollow, and is left out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from skimage import measure
+
+from ...arrays import spread_indices
+from ...exporters.visibility import occluded
+from ...strokes.bezier import bezier_points
+from ...strokes.fitcurve import fit_cubics_many
+from ..volume.carve import VoxelGrid, coarsened, project_points
+
+#: How much darker (in log brightness) than the object round it a region is dark: 0.5 is 61 % of the brightness.
+#: DTU's skull: the eye sockets, the nose and the mouth are 0.6–1.5 darker than the bone round them, shading on
+#: its cranium under 0.3.
+DARKER = 0.5
+#: A hollow is at least this much darker on average (log brightness, 45 % of the brightness round it): little
+#: light reaches into one. Shading and mid-tone paint stay above: the skull's eye sockets, nose and mouth measure
+#: 0.9–1.6; the shaded undersides of the procedural mouse and cow and the calf's patches 0.58–0.69 (against a
+#: local mean that includes them), the mouse's scroll-wheel slot 0.91.
+DEEP = 0.8
+#: The reach (share of the mask's box diagonal) of the local mean brightness a region is compared with.
+LOCAL_REACH = 0.08
+#: A dark region within this share of the mask's box diagonal of the outline touches it.
+OUTLINE_BAND = 0.015
+#: Share of the views that see a voxel in which it must project into a dark region to belong to a hollow.
+DARK_SHARE = 0.5
+#: How deep under the hull's surface (share of its longest side) hollows are looked for, and how far behind
+#: the hull's depth a voxel still counts as seen (a hollow lies behind the surface that bridges it).
+DEPTH = 0.1
+#: The hollows' size (box diagonal over the object's) drawn: smaller ones are dots, larger ones a shaded side.
+MIN_SIZE, MAX_SIZE = 0.03, 0.35
+#: Views used (evenly spread) and the vote's grid (voxels along the hull's longest side).
+VIEWS, VOXELS = 24, 96
+#: The share of a ring the superquadrics may hide from the views that saw into its hollow (:func:`clear_of`).
+HIDDEN = 0.1
+#: The views within this angle (degrees) of a ring's facing see into its hollow (:func:`clear_of`).
+FACING_DEG = 60.0
+#: Gaps (voxels of the vote's grid) closed between the pieces of one hollow.
+CLOSE = 1
+
+
+@dataclass
+class Hollow:
+    """One hollow (or dark patch): its ring and what its salience is made of."""
+
+    cubics: np.ndarray
+    """``(K, 4, 3)`` a closed chain round its opening."""
+    points: np.ndarray
+    """``(P, 3)`` samples along the ring."""
+    share: float
+    """Mean share of the views that see its voxels in which they project into a dark region."""
+    darkness: float
+    """How much darker (log brightness) than the object round it the views see it, mean over its voxels."""
+    facing: np.ndarray
+    """``(3,)`` unit: the mean direction to the views that saw into it."""
+
+
+def dark_regions(image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The regions of a view darker than the object round them, away from its outline, and by how much.
+
+    Args:
+        image: ``(H, W, 3)`` uint8; ``mask`` ``(H, W)`` bool, the object.
+
+    Returns:
+        ``dark`` ``(H, W)`` bool (see the module docstring) and ``drop`` ``(H, W)`` float32, the local mean
+        log brightness minus the pixel's (0 off the object).
+    """
+    gray = np.log(ndimage.gaussian_filter(np.asarray(image, np.float32)[..., :3].mean(-1), 1.0) / 255.0 + 0.02)
+    ys, xs = np.nonzero(mask)
+    if len(ys) == 0:
+        return np.zeros_like(mask), np.zeros(mask.shape, np.float32)
+    diag = float(np.hypot(np.ptp(ys) + 1, np.ptp(xs) + 1))
+    weight = mask.astype(np.float32)
+    reach = LOCAL_REACH * diag
+    local = ndimage.gaussian_filter(gray * weight, reach) / np.maximum(ndimage.gaussian_filter(weight, reach), 1e-6)
+    drop = np.where(mask, local - gray, 0.0).astype(np.float32)
+    dark = ndimage.binary_opening((drop > DARKER) & mask)
+    band = ndimage.distance_transform_edt(mask) <= max(OUTLINE_BAND * diag, 2.0)
+    labels, n = ndimage.label(dark)
+    if n:
+        touching = np.unique(labels[band & dark])
+        dark &= ~np.isin(labels, touching[touching > 0])
+    return dark, drop
+
+
+def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: list[np.ndarray],
+                 masks: list[np.ndarray], depth: list[np.ndarray], tolerance: float) -> list[Hollow]:
+    """The hollows (and dark patches) of an object, each as a closed ring (see the module docstring).
+
+    Args:
+        grid, occupied: the carved hull (the views' free voxels left out).
+        cameras, images, masks, depth: the views at the evidence size, with the hull's depth maps.
+        tolerance: the rings' fitting tolerance (world units).
+    """
+    views = spread_indices(len(cameras), VIEWS)
+    coarse, occ = coarsened(grid, occupied, VOXELS)
+    reach = max(1, int(round(DEPTH * max(occ.shape))))
+    band = occ & ~ndimage.binary_erosion(occ, iterations=reach)
+    ijk = np.argwhere(band)
+    if len(ijk) == 0:
+        return []
+    pts = coarse.centres(ijk).astype(np.float32)
+    behind = DEPTH * max(occ.shape) * coarse.voxel
+    dark_votes = np.zeros(len(pts), np.float32)
+    seen = np.zeros(len(pts), np.float32)
+    drops = np.zeros(len(pts), np.float32)
+    centres = np.array([cameras[v].center for v in views])
+    looked = []  # per view, the voxels it sees dark (for the rings' facing)
+    for v in views:
+        dark, drop = dark_regions(images[v], masks[v])
+        u, w, z = project_points(cameras[v], pts)
+        H, W = dark.shape
+        ok = np.flatnonzero((z > 1e-6) & (u >= 0) & (w >= 0) & (u < W) & (w < H))
+        ok = ok[(z[ok] <= depth[v][w[ok], u[ok]] + behind) & masks[v][w[ok], u[ok]]]
+        seen[ok] += 1
+        hit = ok[dark[w[ok], u[ok]]]
+        dark_votes[hit] += 1
+        drops[hit] += drop[w[hit], u[hit]]
+        looked.append(hit)
+    share = np.where(seen >= max(3, 0.2 * len(views)), dark_votes / np.maximum(seen, 1), 0.0)
+    chosen = share >= DARK_SHARE
+    vol = np.zeros(occ.shape, bool)
+    vol[tuple(ijk[chosen].T)] = True
+    # one hollow the views saw in pieces (a rod across an eye socket) is one: gaps of a voxel or two closed
+    joined = ndimage.binary_closing(vol, np.ones((3, 3, 3)), iterations=CLOSE) & band
+    labels, n = ndimage.label(joined, np.ones((3, 3, 3)))
+    if n == 0:
+        return []
+    label_of = np.zeros(len(pts), int)
+    label_of[chosen] = labels[tuple(ijk[chosen].T)]
+    size = coarse.voxel * float(np.linalg.norm(occ.shape))
+    out = []
+    for k in range(1, n + 1):
+        members = np.flatnonzero(label_of == k)
+        if len(members) < 8:
+            continue
+        darkness = float(drops[members].sum() / max(dark_votes[members].sum(), 1.0))
+        if darkness < DEEP:
+            continue
+        p = pts[members].astype(np.float64)
+        extent = float(np.linalg.norm(p.max(0) - p.min(0))) / size
+        if not MIN_SIZE <= extent <= MAX_SIZE:
+            continue
+        # the opening faces the views that saw into it
+        counts = np.array([np.isin(members, hit).sum() for hit in looked], np.float64)
+        to_eye = centres - p.mean(0)
+        to_eye /= np.linalg.norm(to_eye, axis=1, keepdims=True)
+        facing = (counts[:, None] * to_eye).sum(0)
+        if np.linalg.norm(facing) < 1e-9:
+            continue
+        facing /= np.linalg.norm(facing)
+        ring = _ring(p, facing, coarse.voxel)
+        if ring is None:
+            continue
+        ring = _onto_surface(ring, facing, grid, occupied, behind)
+        cubics = fit_cubics_many([ring], tolerance, [True])[0]
+        samples = bezier_points(cubics, np.linspace(0, 1, 12)).reshape(-1, 3)
+        out.append(Hollow(cubics, samples, float(share[members].mean()), darkness, facing))
+    return out
+
+
+def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: float, step: float, margin: float
+             ) -> np.ndarray | None:
+    """A ring ``cubics`` ``(K, 4, 3)`` moved along ``facing``, as one, by the least multiple of ``step`` (at most
+    ``reach``) that leaves at most :data:`HIDDEN` of it hidden by the superquadrics ``sq`` from the ``cameras``
+    that face it (within :data:`FACING_DEG` of ``facing``; ``margin``: the drawing's occlusion margin): a part's
+    superquadric bulges over the hollows in it (a skull's over its eye sockets) and would hide their rings from
+    the views that see into them. ``None`` when no move within ``reach`` does: a ring no view would see."""
+    if len(sq) == 0:
+        return cubics
+    pts = bezier_points(cubics, np.linspace(0, 1, 8)).reshape(-1, 3)
+    to_eye = np.array([c.center for c in cameras]).reshape(-1, 3) - pts.mean(0)
+    cos = (to_eye / np.maximum(np.linalg.norm(to_eye, axis=1, keepdims=True), 1e-12)) @ facing
+    facing_it = [cameras[k] for k in np.flatnonzero(cos >= np.cos(np.radians(FACING_DEG)))]
+    if not facing_it:
+        return None
+    view = np.repeat(np.arange(len(facing_it)), len(pts))
+    for s in np.arange(0.0, reach + 0.5 * step, step):
+        moved = np.tile(pts + s * facing, (len(facing_it), 1))
+        if occluded(moved + margin * facing, view, facing_it, sq, margin).mean() <= HIDDEN:
+            return cubics + s * facing
+    return None
+
+
+def _onto_surface(points: np.ndarray, normal: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, reach: float
+                  ) -> np.ndarray:
+    """The ring ``points`` ``(P, 3)`` moved along ``normal``, as one, out to where the hull ``occupied`` ends
+    (for three quarters of them; at most ``reach``): a ring drawn at a hollow's waist lies inside the hull,
+    which hides it from every view; on the surface that bridges the opening it is drawn where the views look
+    into the hollow. Moved point by point it would follow the bridge's bumps (a voxel hull's stairs)."""
+    steps = np.arange(0.0, reach + grid.voxel, 0.5 * grid.voxel)
+    q = points[:, None, :] + steps[None, :, None] * normal
+    idx = np.rint(grid.coordinates(q.reshape(-1, 3))).astype(int)
+    inside = ((idx >= 0) & (idx < np.array(occupied.shape))).all(1)
+    occ = np.zeros(len(idx), bool)
+    occ[inside] = occupied[tuple(idx[inside].T)]
+    occ = occ.reshape(len(points), len(steps))
+    # the last step inside before the first outside (none inside: the point stays)
+    out = np.where(occ.any(1), np.argmax(~occ & (np.cumsum(occ, 1) > 0), 1), 0)
+    last_in = np.maximum(out - 1, 0)
+    return points + float(np.percentile(steps[last_in], 75)) * normal
+
+
+def _ring(points: np.ndarray, normal: np.ndarray, voxel: float, samples: int = 48) -> np.ndarray | None:
+    """``(samples, 3)`` the outline of ``points`` ``(P, 3)`` seen along ``normal`` (a unit vector), in the plane
+    through their centroid normal to it: the hollow's waist, its widest section as the views see it."""
+    centre = points.mean(0)
+    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    ab = (points - centre) @ np.stack([u, v]).T / voxel  # in voxels
+    lo = np.floor(ab.min(0)).astype(int) - 3
+    ij = np.floor(ab).astype(int) - lo
+    img = np.zeros(tuple(ij.max(0) + 4), bool)
+    img[ij[:, 0], ij[:, 1]] = True
+    img = ndimage.binary_fill_holes(ndimage.binary_closing(img, iterations=2))
+    contours = measure.find_contours(np.pad(img, 1).astype(np.float32), 0.5)
+    if not contours:
+        return None
+    c = max(contours, key=len) - 1 + lo + 0.5  # back to voxel units about the centre
+    if len(c) < 8:
+        return None
+    step = np.linalg.norm(np.diff(c, axis=0, append=c[:1]), axis=1)
+    at = np.r_[0, np.cumsum(step)[:-1]]
+    t = np.linspace(0, at[-1] + step[-1], samples, endpoint=False)
+    c = np.stack([np.interp(t, at, c[:, i], period=at[-1] + step[-1]) for i in range(2)], 1)
+    c = ndimage.uniform_filter1d(c, 5, axis=0, mode="wrap")
+    return centre + (c * voxel) @ np.stack([u, v])
