@@ -321,7 +321,7 @@ class TestAutoOutline:
         calls: list[str] = []
 
         def one_fit(scene, cfg, checkpoint, resume, log, progress, shared, hold_interrupt):
-            calls.append(cfg.outline)
+            calls.append(cfg.outline if cfg.outline != "hull" or cfg.superquadrics == 0 else "hull + superquadrics")
             log(f"fit {cfg.outline}")
             strokes = StrokeSet(curves=CurveSet(np.zeros((1, 4, 3))))
             return pipeline.FitResult(strokes, interrupted, 1.0, [f"fit {cfg.outline}"], outline_drawn=drawn)
@@ -329,6 +329,7 @@ class TestAutoOutline:
         monkeypatch.setattr(pipeline, "_fit", one_fit)
         return calls
 
+    # the fallback fits no superquadrics: the first fit has shown they do not abstract the object
     @pytest.mark.parametrize("drawn, want", [(0.95, ["superquadrics"]), (0.56, ["superquadrics", "hull"]),
                                              (None, ["superquadrics"])])
     def test_falls_back_to_the_hull_only_when_the_outline_is_not_drawn(self, chair_dir, monkeypatch, drawn, want):
@@ -347,7 +348,7 @@ class TestAutoOutline:
         for cfg in (quick(outline="superquadrics"), quick(outline="hull"),
                     quick(superquadrics=3)):
             fit(scene, cfg, progress=False, log=lambda m: None)
-        assert calls == ["superquadrics", "hull", "superquadrics"]
+        assert calls == ["superquadrics", "hull + superquadrics", "superquadrics"]
 
     def test_an_interrupted_fit_is_not_repeated(self, chair_dir, monkeypatch):
         calls = self._calls(monkeypatch, 0.3, interrupted=True)
@@ -364,13 +365,14 @@ class TestAutoOutline:
 
     def test_the_fallback_traces_once_and_equals_a_fit_with_the_hulls_outline(self, snowman_dir, monkeypatch):
         """The second fit takes the first fit's carving and traces (evidence, ridges, sight lines, contours) and
-        makes exactly what ``outline="hull"`` makes on its own: nothing the first fit did leaks into it."""
+        makes exactly what ``outline="hull"`` without superquadrics makes on its own: nothing the first fit did
+        leaks into it."""
         from doodle.fit import config
         from doodle.fit.discovery import discover
         from doodle.strokes.binary import encode
 
         scene = load_scene(snowman_dir)
-        alone = fit(scene, quick(outline="hull", max_superquadrics=3), progress=False, log=lambda m: None)
+        alone = fit(scene, quick(outline="hull", superquadrics=0), progress=False, log=lambda m: None)
         traced = []
         real = discover.trace_candidates
         monkeypatch.setattr(discover, "trace_candidates", lambda *a, **k: traced.append(1) or real(*a, **k))
