@@ -113,6 +113,20 @@ def test_a_ring_under_a_bulging_superquadric_is_moved_out_until_the_views_see_it
     assert clear_of(cubics, up, SuperquadricSet(), cameras, 0.5, 0.02, 0.01) is cubics
 
 
+def test_a_ring_inside_the_occluder_is_moved_out_of_it_too():
+    from doodle.strokes.model import Voxels
+
+    a = np.linspace(0, 2 * np.pi, 33)
+    ring = np.stack([0.2 * np.cos(a), 0.2 * np.sin(a), np.full(33, 0.7)], -1)
+    cubics = fit_cubics_many([ring], 1e-3, [True])[0]
+    block = Voxels(np.full(3, -0.95), 0.1, np.eye(3), np.ones((20, 20, 20), bool))  # the cube |x| ≤ 1
+    cameras = sample_cameras("train", 24, 64)
+    up = np.array([0.0, 0.0, 1.0])
+    moved = clear_of(cubics, up, SuperquadricSet(), cameras, reach=0.8, step=0.02, margin=0.01, volume=block)
+    # out to its top face (z = 1), less the slack the drawing allows a curve under the occluder's surface
+    assert 0.15 < bezier_points(moved, np.linspace(0, 1, 8))[..., 2].min() - 0.7 < 0.35
+
+
 def test_hollows_are_features_drawn_by_their_own_rings(spotted_sphere):
     eye, cams, images, masks, grid, occupied, depth = spotted_sphere
     hollows = find_hollows(grid, occupied, cams, images, masks, depth, 0.01)

@@ -632,7 +632,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
                   polish: bool = True, outline_curves: int = 0, whole_outline: float = 0.0, most_outline: int = 0,
-                  features: int = 0, open_features: bool = False, over=None, occlusion_margin: float = 0.0,
+                  features: int = 0, open_features: bool = False, over=None, occluder=None,
+                  occlusion_margin: float = 0.0,
                   log: Callable[[str], None] = lambda m: None) -> Discovery:
     """Choose among the candidates (greedy marginal coverage, see :func:`select_strokes`), polish the chosen
     cubics on the evidence and snap their meeting ends (``polish``), and read their face normals off the hull.
@@ -655,9 +656,9 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
         features: then up to this many features on smooth faces (eyes, a muzzle, patches, buttons), chosen by
             salience (:mod:`.salience`), not by pixels: closed ones only, or with ``open_features`` open marks
             too.
-        over: the superquadrics drawn (a :class:`~doodle.strokes.model.SuperquadricSet`), from behind which the
-            hollows' rings are moved (:func:`.hollows.clear_of`, with the drawing's ``occlusion_margin``);
-            ``None``: none.
+        over, occluder: the superquadrics (a :class:`~doodle.strokes.model.SuperquadricSet`) and the occluder
+            (:class:`~doodle.strokes.model.Voxels`) the drawing hides behind, from behind which the hollows'
+            rings are moved (:func:`.hollows.clear_of`, with the drawing's ``occlusion_margin``); ``None``: none.
     """
     t = time.perf_counter()
     ev = cand.evidence
@@ -696,7 +697,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             cand.smooth.any() or cand.traces.hollows):
         from .salience import duplicates, feature_cubics
 
-        painted = _salient(cand, chosen, features, open_features, over, occlusion_margin)
+        painted = _salient(cand, chosen, features, open_features, over, occluder, occlusion_margin)
         if painted:
             drawings = [feature_cubics(f, cand.controls, TOLERANCE_VOXELS * h) for f in painted]
             painted_controls = np.concatenate(drawings)
@@ -749,12 +750,12 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
                      contour, source, outline_drawn)
 
 
-def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool, over=None,
+def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool, over=None, occluder=None,
              occlusion_margin: float = 0.0) -> list:
     """Up to ``budget`` features among the traced cubics wholly on smooth faces and not ``chosen`` and the
     hollows' rings, by salience (closed ones only unless ``open_features``). Contour curves are never features:
-    they are the outline's. A hollow's ring is moved out from behind the superquadrics ``over`` first, or left
-    out when no view would see it (:func:`.hollows.clear_of`)."""
+    they are the outline's. A hollow's ring is moved out from behind the superquadrics ``over`` and the
+    ``occluder`` first, or left out when no view would see it (:func:`.hollows.clear_of`)."""
     from .salience import choose_features, score_features
 
     ev, traces = cand.evidence, cand.traces
@@ -763,13 +764,16 @@ def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bo
     is_feature[[k for k in chosen if k < len(is_feature)]] = False  # the traced cubics come first
     scored = score_features(cand.controls, np.flatnonzero(is_feature), cand.controls[chosen], ev.score, ev.grid,
                             ev.occupied, steps=traces.steps, hollows=traces.hollows)
-    if over is not None:
+    if over is not None or occluder is not None:
+        from ...strokes.model import SuperquadricSet
+
+        over = SuperquadricSet() if over is None else over
         size = ev.grid.voxel * float(np.linalg.norm(ev.grid.shape))
         seen = []
         for f in scored:
             if f.hollow is not None:
                 moved = clear_of(f.cubics, f.hollow.facing, over, ev.cameras, CLEAR_REACH * size, ev.grid.voxel,
-                                 occlusion_margin)
+                                 occlusion_margin, occluder)
                 if moved is None:
                     continue
                 f.points, f.cubics = f.points + (moved[0, 0] - f.cubics[0, 0]), moved

@@ -182,14 +182,16 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
     return out
 
 
-def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: float, step: float, margin: float
-             ) -> np.ndarray | None:
+def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: float, step: float, margin: float,
+             volume=None) -> np.ndarray | None:
     """A ring ``cubics`` ``(K, 4, 3)`` moved along ``facing``, as one, by the least multiple of ``step`` (at most
-    ``reach``) that leaves at most :data:`HIDDEN` of it hidden by the superquadrics ``sq`` from the ``cameras``
-    that face it (within :data:`FACING_DEG` of ``facing``; ``margin``: the drawing's occlusion margin): a part's
-    superquadric bulges over the hollows in it (a skull's over its eye sockets) and would hide their rings from
-    the views that see into them. ``None`` when no move within ``reach`` does: a ring no view would see."""
-    if len(sq) == 0:
+    ``reach``) that leaves at most :data:`HIDDEN` of it hidden by the superquadrics ``sq`` and the occluder
+    ``volume`` (a :class:`~doodle.strokes.model.Voxels`, or ``None``) from the ``cameras`` that face it (within
+    :data:`FACING_DEG` of ``facing``; ``margin``: the drawing's occlusion margin): a part's superquadric bulges
+    over the hollows in it (a skull's over its eye sockets), as the coarse occluder does, and would hide their
+    rings from the views that see into them. ``None`` when no move within ``reach`` does: a ring no view would
+    see."""
+    if len(sq) == 0 and volume is None:
         return cubics
     pts = bezier_points(cubics, np.linspace(0, 1, 8)).reshape(-1, 3)
     to_eye = np.array([c.center for c in cameras]).reshape(-1, 3) - pts.mean(0)
@@ -200,7 +202,7 @@ def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: f
     view = np.repeat(np.arange(len(facing_it)), len(pts))
     for s in np.arange(0.0, reach + 0.5 * step, step):
         moved = np.tile(pts + s * facing, (len(facing_it), 1))
-        if occluded(moved + margin * facing, view, facing_it, sq, margin).mean() <= HIDDEN:
+        if occluded(moved + margin * facing, view, facing_it, sq, margin, volume=volume).mean() <= HIDDEN:
             return cubics + s * facing
     return None
 

@@ -79,7 +79,8 @@ def choose_beside(state: FitState, sq: SuperquadricSet, polish: bool, log=lambda
         if sq.drawn.any() else None
     return choose_curves(cand, cfg.max_curves, cfg.min_gain, taken, polish=polish, outline_curves=cfg.outline_curves,
                          whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
-                         over=sq if len(sq) else None, occlusion_margin=DrawOptions.occlusion_margin * state.frame.radius,
+                         over=sq if len(sq) else None, occluder=state.occluder,
+                         occlusion_margin=DrawOptions.occlusion_margin * state.frame.radius,
                          open_features=cfg.level.open_features, log=log)
 
 
