@@ -71,8 +71,9 @@ def fit(scene: Scene, config: FitConfig | None = None, checkpoint: str | os.Path
 
     # The fallback draws the hull's outline without superquadrics: the compact fit has just shown that they do
     # not abstract this object, and grown again against the silhouettes they drew none of Lego's outline (all
-    # six dropped, 54 of its 99 s)
-    compact, whole = replace(cfg, outline="superquadrics"), replace(cfg, outline="hull", superquadrics=0)
+    # six dropped, 54 of its 99 s). With --curves 0 they are all there is to fit beside the hull's outline.
+    compact = replace(cfg, outline="superquadrics")
+    whole = replace(cfg, outline="hull", superquadrics=0 if cfg.curves != 0 else cfg.superquadrics)
     ck = load_checkpoint(Path(checkpoint)) if (resume and checkpoint) else None
     if ck is not None and ck["config"].get("outline") == "hull":  # interrupted in the fallback's fit
         return _drawn(_fit(scene, whole, checkpoint, resume, log, progress, {}, hold_interrupt), cfg, scene)
