@@ -4,7 +4,7 @@ Captures (``--captures``, comma-separated; default ``dtu,carpet-parcel,carpet-co
 
 - ``dtu``: DTU scan65 (a skull on a brown table before a dark room), its 49 real photos as a plain folder;
   its true masks score the automatic ones. Needs ``../shared/data``.
-- ``carpet-parcel``, ``carpet-cow``, ``planks-chair``: the package's procedural phone captures (``doodle sample
+- ``carpet-parcel``, ``carpet-cow``, ``carpet-calf``, ``planks-chair``: the package's procedural phone captures (``doodle sample
   NAME --capture --floor carpet|planks``: 40 JPEGs at 400 px with lens distortion, portrait and EXIF-rotated
   shots) given as a plain folder of photos; a busy red carpet has more features than the object.
 - ``lego``: the 100 Lego training renders over textured backdrops that differ from photo to photo.
@@ -38,7 +38,8 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 LEGO = DATA / "nerf_synthetic" / "lego"
 DTU = DATA / "dtu" / "scan65"
 UPRIGHT = {3: Image.Transpose.ROTATE_180, 6: Image.Transpose.ROTATE_270, 8: Image.Transpose.ROTATE_90}  # EXIF turns
-PROCEDURAL = {"carpet-parcel": ("parcel", "carpet"), "carpet-cow": ("cow", "carpet"), "planks-chair": ("chair", "planks")}
+PROCEDURAL = {"carpet-parcel": ("parcel", "carpet"), "carpet-cow": ("cow", "carpet"), "carpet-calf": ("calf", "carpet"),
+              "planks-chair": ("chair", "planks")}
 
 
 def background(shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
