@@ -220,7 +220,8 @@ def _onto_surface(points: np.ndarray, normal: np.ndarray, grid: VoxelGrid, occup
     occ = np.zeros(len(idx), bool)
     occ[inside] = occupied[tuple(idx[inside].T)]
     occ = occ.reshape(len(points), len(steps))
-    # the last step inside before the first outside (none inside: the point stays)
+    # the last step inside before the first outside; a point never inside, or still inside at the reach (deep in
+    # the hull, where the bridge is far), stays and counts as not moved: the ring follows the rest of it
     out = np.where(occ.any(1), np.argmax(~occ & (np.cumsum(occ, 1) > 0), 1), 0)
     last_in = np.maximum(out - 1, 0)
     return points + float(np.percentile(steps[last_in], 75)) * normal
