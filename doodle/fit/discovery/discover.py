@@ -500,7 +500,7 @@ class Candidates:
 
 def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
                      tolerance_voxels: float = TOLERANCE_VOXELS, contours: bool = True, texture: bool = True,
-                     carving: tuple[VoxelGrid, np.ndarray] | None = None) -> Traces:
+                     carving: tuple[VoxelGrid, np.ndarray] | None = None, hollows: bool = True) -> Traces:
     """Evidence, ridges, polylines, feature cubics, sight lines and contour curves (see :func:`find_candidates`
     for the arguments)."""
     clock = time.perf_counter()
@@ -536,10 +536,10 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
         steps[smooth] = albedo_steps(controls[smooth], [ev.cameras[v] for v in views],
                                      [scene.images[v] for v in views], [scene.masks[v] for v in views],
                                      [ev.depth[v] for v in views], ev.margin)
-    hollows: list[Hollow] = []
-    if texture:  # eye sockets, a nose, dark paint: rings the salience choice may draw
+    rings: list[Hollow] = []
+    if texture and hollows:  # eye sockets, a nose, dark paint: rings the salience choice may draw
         t = time.perf_counter()
-        hollows = find_hollows(ev.grid, ev.occupied if ev.free is None else ev.occupied & ~ev.free, ev.cameras,
+        rings = find_hollows(ev.grid, ev.occupied if ev.free is None else ev.occupied & ~ev.free, ev.cameras,
                                scene.images, scene.masks, ev.depth, tolerance_voxels * h)
         seconds["hollows"] = time.perf_counter() - t
     rims = None
@@ -550,14 +550,14 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
                          tolerance_voxels * h)
         seconds["contours"] = time.perf_counter() - t
     return Traces(ev, controls, shares, rims, boundaries, len(ridges.points), len(polys), seconds, texture, steps,
-                  hollows)
+                  rings)
 
 
 def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15, min_length: float = 0.03,
                     tolerance_voxels: float = TOLERANCE_VOXELS, max_views: int = 48, contours: bool = True,
                     outline_reach: int | None = None, texture: bool = True, hull_outline: bool = False,
                     log: Callable[[str], None] = lambda m: None, traces: Traces | None = None,
-                    carving: tuple[VoxelGrid, np.ndarray] | None = None) -> Candidates:
+                    carving: tuple[VoxelGrid, np.ndarray] | None = None, hollows: bool = True) -> Candidates:
     """Evidence, ridges, polylines and candidate cubics of a posed, masked scene, with their coverage.
 
     Args:
@@ -581,13 +581,14 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
             (``None``: traced here).
         carving: the visual hull ``(grid, occupied)`` carved from this scene with ``max_voxels`` (``None``:
             carved here).
+        hollows: with ``texture``, also find the hollows (:mod:`.hollows`); only a choice of features draws them.
     """
     if outline_reach is None:
         outline_reach = AUTOMATIC_OUTLINE_REACH if scene.masks_automatic else 1
     reused = traces is not None
     if traces is None:
         traces = trace_candidates(scene, max_voxels, threshold, min_length, tolerance_voxels, contours, texture,
-                                  carving)
+                                  carving, hollows)
     ev, controls, smooth, rims = traces.evidence, traces.controls, traces.smooth, traces.rims
     seconds = dict(traces.seconds)
     gates, normals, source = np.zeros(len(controls)), np.zeros((len(controls), 2, 3)), np.full(len(controls), -1)

@@ -151,6 +151,7 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
         return []
     label_of = np.zeros(len(pts), int)
     label_of[chosen] = labels[tuple(ijk[chosen].T)]
+    dark_seen = np.stack([np.bincount(label_of[hit], minlength=n + 1) for hit in looked])  # (views, n + 1)
     size = coarse.voxel * float(np.linalg.norm(occ.shape))
     out = []
     for k in range(1, n + 1):
@@ -165,10 +166,9 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
         if not MIN_SIZE <= extent <= MAX_SIZE:
             continue
         # the opening faces the views that saw into it
-        counts = np.array([np.isin(members, hit).sum() for hit in looked], np.float64)
         to_eye = centres - p.mean(0)
         to_eye /= np.linalg.norm(to_eye, axis=1, keepdims=True)
-        facing = (counts[:, None] * to_eye).sum(0)
+        facing = (dark_seen[:, k, None] * to_eye).sum(0)
         if np.linalg.norm(facing) < 1e-9:
             continue
         facing /= np.linalg.norm(facing)

@@ -258,19 +258,21 @@ def score_features(controls: np.ndarray, members: np.ndarray, drawn: np.ndarray,
         return []
     smooth = ndimage.gaussian_filter(score.astype(np.float32), 0.7)
     near = cKDTree(bezier_points(drawn, np.linspace(0, 1, _SAMPLES)).reshape(-1, 3)) if len(drawn) else None
+
+    def shape(pts: np.ndarray) -> tuple[float, float, float]:
+        """Closure, size (share of the object's) and isolation of a feature's samples."""
+        extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
+        iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
+        return closure(pts), extent / size, iso
+
     out = []
     for g in groups:
         pts = bezier_points(controls[g], np.linspace(0, 1, _SAMPLES)).reshape(-1, 3)
         contrast = float(ndimage.map_coordinates(smooth, grid.coordinates(pts).T, order=1, cval=0.0).mean())
-        extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
-        iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
         step = STEP_FULL if steps is None else float(np.mean(steps[g]))
-        out.append(Feature(g, contrast, closure(pts), extent / size, iso, pts, step=step))
+        out.append(Feature(g, contrast, *shape(pts), pts, step=step))
     for hollow in hollows:
-        pts = hollow.points
-        extent = float(np.linalg.norm(pts.max(0) - pts.min(0)))
-        iso = 1.0 if near is None else float(np.clip(near.query(pts)[0].mean() / (ISOLATION_REACH * size), 0, 1))
-        out.append(Feature(np.zeros(0, int), hollow.share, closure(pts), extent / size, iso, pts,
+        out.append(Feature(np.zeros(0, int), hollow.share, *shape(hollow.points), hollow.points,
                            step=hollow.darkness, cubics=hollow.cubics, hollow=hollow))
     _pair_up(out, size, grid, occupied, rng or np.random.default_rng(0))
     return out

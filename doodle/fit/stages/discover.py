@@ -37,7 +37,7 @@ def candidates(state: FitState) -> Candidates:
         state.candidates = find_candidates(
             state.evidence, cfg.evidence_voxels, contours=cfg.contours, texture=cfg.texture,
             hull_outline=cfg.outline_hull, log=state.say, traces=state.shared.get("traces"),
-            carving=None if carving is None else (carving.grid, carving.occupied))
+            carving=None if carving is None else (carving.grid, carving.occupied), hollows=cfg.features > 0)
         state.shared["traces"] = state.candidates.traces
     return state.candidates
 
@@ -79,7 +79,7 @@ def choose_beside(state: FitState, sq: SuperquadricSet, polish: bool, log=lambda
         if sq.drawn.any() else None
     return choose_curves(cand, cfg.max_curves, cfg.min_gain, taken, polish=polish, outline_curves=cfg.outline_curves,
                          whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
-                         over=sq if len(sq) else None, occluder=state.occluder,
+                         over=sq, occluder=state.occluder,
                          occlusion_margin=DrawOptions.occlusion_margin * state.frame.radius,
                          open_features=cfg.level.open_features, log=log)
 
