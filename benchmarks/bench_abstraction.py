@@ -3,7 +3,7 @@ hull's outline (``--outline hull``), side by side, on every scene at hand.
 
 Columns: ``hull``: whether the hull's outline is drawn; ``drawn``: the share of the training silhouettes that
 the superquadrics and curves draw (``FitResult.outline_drawn``: under 0.7 the default falls back to the hull's
-outline).
+outline); ``bent``: superquadrics tapered or bent (the ``plain`` configuration, ``--no-deform``, fits none).
 
 Bars (issue 38), default settings (``detail="medium"``, superquadric outline) on 2 CPU cores:
 - a teapot, a CAD part and a toy cow: binary stroke file ≤ 2,048 B, held-out line precision ≥ 0.90 and F ≥ 0.94
@@ -14,7 +14,7 @@ Bars (issue 38), default settings (``detail="medium"``, superquadric outline) on
 - Lego ≤ 90 s.
 
 Run: ``python benchmarks/bench_abstraction.py [--only teapot,cow,...,abc,rocker-arm,cheburashka,lego]
-[--configs low,medium,high,hull] [--sheet DIR]``. ``--sheet`` writes, per scene, one PNG with the same held-out
+[--configs low,medium,high,hull,plain] [--sheet DIR]``. ``--sheet`` writes, per scene, one PNG with the same held-out
 views drawn at each configuration (the figure in ``docs/``).
 """
 
@@ -42,7 +42,7 @@ REAL = {"abc": (DATA / "abc-nef" / "00000006", 512), "rocker-arm": (DATA / "blen
 #: The levels as a user gets them (``--outline auto``: the hull's outline when the abstraction draws too little),
 #: the compact abstraction whatever it draws, and the hull's outline.
 CONFIGS = {"low": dict(detail="low"), "medium": dict(), "high": dict(detail="high"),
-           "compact": dict(outline="superquadrics"), "hull": dict(outline="hull")}
+           "compact": dict(outline="superquadrics"), "hull": dict(outline="hull"), "plain": dict(deform=False)}
 
 
 def scenes(only: set[str] | None, tmp: Path):
@@ -100,7 +100,7 @@ def main() -> None:
     only = set(args.only.split(",")) if args.only else None
     configs = args.configs.split(",")
     print(f"{'scene':12s} {'config':7s} {'s':>6s} {'bytes':>6s} {'curves':>6s} {'sq':>5s} {'hull':>4s} {'drawn':>5s} "
-          f"{'P':>6s} {'R':>6s} {'F':>6s}")
+          f"{'bent':>4s} {'P':>6s} {'R':>6s} {'F':>6s}")
     figure = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, train, test, truth in scenes(only, Path(tmp)):
@@ -119,13 +119,14 @@ def main() -> None:
                     gt = read_abc_ground_truth(truth)
                 m = evaluate(s, test, truth=gt)
                 sq = f"{int(s.superquadrics.drawn.sum())}/{len(s.superquadrics)}"
+                bent = int(s.superquadrics.deformed.sum()) if len(s.superquadrics) else 0
                 extra = ""
                 if "curves_3d" in m:
                     extra = f"  3D P {m['curves_3d']['precision']:.3f} R {m['curves_3d']['recall']:.3f} " \
                             f"F {m['curves_3d']['f_score']:.3f}"
                 drawn = "" if res.outline_drawn is None else f"{res.outline_drawn:.2f}"
                 print(f"{name:12s} {c:7s} {dt:6.1f} {len(encode(s)):6d} {len(s.curves):6d} {sq:>5s} "
-                      f"{'yes' if s.hull is not None else 'no':>4s} {drawn:>5s} "
+                      f"{'yes' if s.hull is not None else 'no':>4s} {drawn:>5s} {bent:4d} "
                       f"{m['line_precision']:6.3f} {m['silhouette_recall']:6.3f} {m['f_score']:6.3f}{extra}",
                       flush=True)
                 if args.keep:

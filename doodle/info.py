@@ -41,6 +41,7 @@ def describe(path: str | Path) -> dict[str, Any]:
         "superquadrics": len(sq),
         "outlines_drawn": int(sq.drawn.sum()),
         "outline_cells_left_out": int((~sq.drawn_cells[sq.drawn]).sum()),
+        "deformed": int(sq.deformed.sum()) if len(sq) else 0,
         **{name: None if vol is None else {"shape": [int(v) for v in vol.occupied.shape], "voxel": round(float(vol.voxel), 6),
                                            "occupied": int(vol.occupied.sum())}
            for name, vol in (("occluder", strokes.occluder), ("hull", strokes.hull))},
@@ -62,6 +63,7 @@ def format_description(info: dict[str, Any]) -> str:
         + (f" ({info['contour_curves']} of them contour curves, drawn where the view grazes them)" if info["contour_curves"] else ""),
         f"  superquadrics   {info['superquadrics']} ({info['outlines_drawn']} outlines drawn"
         + (f", {info['outline_cells_left_out']} of their surface cells left out" if info["outline_cells_left_out"] else "")
+        + (f", {info['deformed']} tapered or bent" if info.get("deformed") else "")
         + ")",
         *[f"  {name:<15} {'×'.join(map(str, v['shape']))} voxels of {v['voxel']:g} ({v['occupied']} occupied): {role}"
           for name, role in (("occluder", "hides what lies behind the object's bulk"),

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -294,6 +295,8 @@ for o in objs:
         a, b = o.data.splines[0].bezier_points
         out["curves"].append([list(a.co), list(a.handle_right), list(b.handle_left), list(b.co)])
     out["meshes"] += o.type == "MESH" and o.name.startswith("superquadric-")
+    if o.type == "MESH" and o.name.startswith("superquadric-"):
+        out.setdefault("vertices", []).append([list(o.matrix_world @ v.co) for v in o.data.vertices])
     if o.name == "hull":
         out["hull"] = [len(o.data.vertices), len(o.data.polygons)]
 for cam in [o for o in objs if o.type == "CAMERA" and o.name.startswith("view-")]:
@@ -311,6 +314,9 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     1e-5, one mesh per superquadric, the hull's mesh (with the doodle command), and orbit cameras that see the curves where doodle's own cameras draw
     them (within 0.05 px at 200 × 100). A binary file is converted by the ``doodle`` command."""
     strokes.hull = _ball_hull()
+    m = len(strokes.superquadrics)  # the first one tapered and bent: Blender's mesh is export3d's
+    strokes.superquadrics = replace(strokes.superquadrics, taper=np.r_[[[0.4, -0.3]], np.zeros((m - 1, 2))],
+                                    bend=np.r_[[[0.5, 0.2]], np.zeros((m - 1, 2))])
     src = tmp_path / f"s{suffix}"
     write_strokes(src, strokes)
     strokes = read_strokes(src)  # the binary file's positions are quantised
@@ -325,6 +331,8 @@ def test_blender_imports_exact_curves_meshes_and_doodles_cameras(strokes, tmp_pa
     out = json.loads(line[len("RESULT "):])
     assert np.allclose(np.array(out["curves"]), strokes.curves.control_points, atol=1e-5)
     assert out["meshes"] == len(strokes.superquadrics)
+    for i, seen in enumerate(out["vertices"]):
+        assert np.allclose(np.array(seen), superquadric_mesh(strokes.superquadrics, i)[0], atol=1e-4)
     v, f = hull_mesh(strokes.hull)  # the hull is meshed by the doodle command, as export3d meshes it
     assert out["hull"] == [len(v), len(f)]
     cams = orbit_cameras(strokes.frame, 4, 200, 100)

@@ -11,7 +11,7 @@ from ..cameras import Camera
 from ..errors import DoodleError
 from ..strokes.bezier import bernstein, bezier_length, bezier_points
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
-from ..strokes.superquadric import union_log_inside_outside
+from ..strokes.superquadric import deformation_of, union_log_inside_outside
 from ..strokes.fitcurve import fit_cubics_many
 from .outline import FIT_TOLERANCE, GIVE_WAY, GIVE_WAY_PX, outline_polylines, uncovered_runs
 from .project import depth_intervals, project_curves, visibility_runs
@@ -93,7 +93,8 @@ def check_camera(strokes: StrokeSet, camera: Camera) -> None:
         raise DoodleError(f"{name} sits at the scene centre")
     lo, hi = strokes.bounding_box()
     sq = strokes.superquadrics
-    inside_union = len(sq) and union_log_inside_outside(c[None], sq.scale, sq.shape, sq.rotation, sq.translation)[0] < 0
+    inside_union = len(sq) and union_log_inside_outside(c[None], sq.scale, sq.shape, sq.rotation, sq.translation,
+                                                           deformation_of(sq))[0] < 0
     if inside_union or (np.all(c > lo) and np.all(c < hi)):
         raise DoodleError(f"{name} at {np.round(c, 3).tolist()} is inside the object "
                           f"(the strokes' bounding box); move it further out")
@@ -196,9 +197,14 @@ def silhouette_hidden(points: np.ndarray, normals: np.ndarray, owner: np.ndarray
                       cameras: list[Camera], sq: SuperquadricSet, margin: float, volume: Voxels | None = None
                       ) -> np.ndarray:
     """Whether superquadric contour points ``(P, 3)`` (unit ``normals``, ``owner`` superquadric, seen from
-    ``cameras[view]``) are hidden: by the other superquadrics (never by their own, convex one, whose surface
-    their rays only graze), or by the occluder ``volume``, tested ``margin`` out along the normal."""
+    ``cameras[view]``) are hidden: by the other superquadrics (not by their own, convex one, whose surface
+    their rays only graze; a bent one is not convex and may hide its own contour, tested ``margin`` out along
+    the normal), or by the occluder ``volume``, tested ``margin`` out along the normal."""
     hidden = occluded(points, view, cameras, sq, margin, exclude=owner)
+    bent = (sq.bends != 0).any(axis=1)[owner] if len(sq) and len(owner) else np.zeros(len(points), bool)
+    if bent.any():
+        out = points[bent] + margin * normals[bent]
+        hidden[bent] |= occluded(out, view[bent], cameras, sq, margin)
     if volume is not None:
         hidden |= occluded(points + margin * normals, view, cameras, SuperquadricSet(), margin, volume=volume)
     return hidden

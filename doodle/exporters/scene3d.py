@@ -22,6 +22,7 @@ import numpy as np
 
 from ..strokes.bezier import bezier_points
 from ..strokes.model import StrokeSet, SuperquadricSet, Voxels
+from ..strokes.deform import bend_axis, deform
 from ..strokes.superquadric import quaternion_to_matrix, surface_points_at
 from .silhouettes import angle_warp
 
@@ -33,7 +34,8 @@ def superquadric_mesh(sq: SuperquadricSet, i: int, n_eta: int = 24, n_omega: int
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Closed triangle mesh of superquadric ``i``: vertices ``(V, 3)`` in world coordinates and faces
     ``(F, 3)`` (counter-clockwise seen from outside). ``n_eta − 1`` rings of ``n_omega`` vertices between two
-    poles, spaced evenly in the profiles' polar angles, so box-like ones keep their edges."""
+    poles, spaced evenly in the profiles' polar angles, so box-like ones keep their edges; tapered and bent as
+    the superquadric is."""
     e1, e2 = float(sq.shape[i, 0]), float(sq.shape[i, 1])
     eta = angle_warp(np.linspace(-np.pi / 2, np.pi / 2, n_eta + 1)[1:-1], e1)
     omega = angle_warp(np.linspace(-np.pi, np.pi, n_omega, endpoint=False), e2)
@@ -42,6 +44,8 @@ def superquadric_mesh(sq: SuperquadricSet, i: int, n_eta: int = 24, n_omega: int
     omega_all = np.concatenate([[0.0], O.ravel(), [0.0]])
     local, _ = surface_points_at(eta_all, omega_all, np.broadcast_to(sq.scale[i], (len(eta_all), 3)),
                                  np.broadcast_to(sq.shape[i], (len(eta_all), 2)))
+    if sq.deformed[i]:
+        local = deform(local, sq.scale[i], sq.tapers[i], *bend_axis(sq.bends[i], sq.scale[i]))
     R = quaternion_to_matrix(sq.rotation[i])
     verts = local @ R.T + sq.translation[i]
     rings, n = n_eta - 1, n_omega

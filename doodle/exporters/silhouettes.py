@@ -15,7 +15,8 @@ from skimage import measure
 
 from ..cameras import Camera
 from ..strokes.model import OUTLINE_CELLS, SuperquadricSet
-from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix, surface_points_at, world_to_local
+from ..strokes.superquadric import (canonical, deformation_of, deformed_surface_points_at, log_inside_outside,
+                                    quaternion_to_matrix)
 
 
 def angle_warp(phi: np.ndarray, e: float) -> np.ndarray:
@@ -105,13 +106,20 @@ class SurfaceGrids:
 _GRID_CACHE: dict[tuple, SurfaceGrids] = {}
 
 
+def _per(deformation: tuple | None, index) -> tuple | None:
+    """A set's deformation arrays indexed by ``index`` (per superquadric of each point, or with axes added)."""
+    return None if deformation is None else tuple(a[index] for a in deformation)
+
+
 def surface_grids(sq: SuperquadricSet, n_eta: int, n_omega: int) -> SurfaceGrids:
     """Parametric grids of every superquadric, cached by value (drawing 36 views evaluates them once)."""
-    key = (sq.scale.tobytes(), sq.shape.tobytes(), sq.rotation.tobytes(), sq.translation.tobytes(), n_eta, n_omega)
+    key = (sq.scale.tobytes(), sq.shape.tobytes(), sq.rotation.tobytes(), sq.translation.tobytes(),
+           sq.tapers.tobytes(), sq.bends.tobytes(), n_eta, n_omega)
     if key not in _GRID_CACHE:
         grids = [_grid(n_eta, n_omega, sq.shape[i]) for i in range(len(sq))]
         eta, omega = np.stack([g[0] for g in grids]), np.stack([g[1] for g in grids])
-        p, n = surface_points_at(eta, omega, sq.scale[:, None, None], sq.shape[:, None, None])
+        p, n = deformed_surface_points_at(eta, omega, sq.scale[:, None, None], sq.shape[:, None, None],
+                                          _per(deformation_of(sq), (slice(None), None, None)))
         R = quaternion_to_matrix(sq.rotation)[:, None]  # (M, 1, 3, 3)
         if len(_GRID_CACHE) >= 4:
             _GRID_CACHE.pop(next(iter(_GRID_CACHE)))
@@ -139,9 +147,10 @@ def _refine(c: np.ndarray, i: np.ndarray, grids: SurfaceGrids, g: np.ndarray, sq
     ga, gb = g[i, ra, ca], g[i, rb, cb]
     s = np.clip(np.where(on_row_edge, c[:, 0] - ra, c[:, 1] - ca), 0, 1)
     R = quaternion_to_matrix(sq.rotation)[i]  # (K, 3, 3)
+    deformation = _per(deformation_of(sq), i)
 
     def surface(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p, n = surface_points_at(ea + s * (eb - ea), wa + s * (wb - wa), sq.scale[i], sq.shape[i])
+        p, n = deformed_surface_points_at(ea + s * (eb - ea), wa + s * (wb - wa), sq.scale[i], sq.shape[i], deformation)
         return (R @ p[:, :, None])[:, :, 0] + sq.translation[i], (R @ n[:, :, None])[:, :, 0]
 
     p, n = surface(s)
@@ -198,7 +207,8 @@ def contour_samples(sq: SuperquadricSet, camera: Camera, n_eta: int = 72, n_omeg
     c = np.concatenate([c for _, c in contours])
     p, n = _refine(c, owner, grids, g, sq, camera)
     # Vertices inside another superquadric are not on the union's contour.
-    lf = log_inside_outside(world_to_local(p, sq.rotation, sq.translation), sq.scale, sq.shape)  # (M, K)
+    lf = log_inside_outside(canonical(p, sq.scale, sq.rotation, sq.translation, deformation_of(sq)), sq.scale,
+                            sq.shape)  # (M, K)
     lf[owner, np.arange(len(p))] = np.inf
     return ContourSamples([(i, len(c)) for i, c in contours], p, n, contour_cells(c, n_eta, n_omega),
                           lf.min(axis=0) >= -margin)

@@ -13,7 +13,7 @@ import numpy as np
 from ..arrays import first_occupied, free_space
 from ..cameras import Camera
 from ..strokes.model import SuperquadricSet, Voxels
-from ..strokes.superquadric import log_inside_outside, quaternion_to_matrix
+from ..strokes.superquadric import bounding_radius, deformation_of, log_inside_outside, quaternion_to_matrix
 
 
 def _slab(o: np.ndarray, u: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -67,7 +67,7 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     # Bounding spheres first (radius |a| holds the box |x_i| ≤ a_i, which holds f ≤ 1), as (P, M) products:
     # the squared distance of each sphere's centre from each segment's line, and where along it.
     c = sq.translation
-    radius2 = (sq.scale ** 2).sum(axis=1)
+    radius2 = bounding_radius(sq) ** 2
     b = u @ c.T - (origins * u).sum(axis=1, keepdims=True)  # (P, M): t of the centre's foot point
     dist2 = (c ** 2).sum(axis=1) - 2 * origins @ c.T + (origins ** 2).sum(axis=1, keepdims=True) - b * b
     h = np.sqrt(np.maximum(radius2 - dist2, 0.0))
@@ -75,6 +75,14 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     if exclude is not None:
         candidate &= exclude[:, None] != np.arange(len(sq))[None, :]
     p, j = np.nonzero(candidate)
+    blocked = np.zeros(P, bool)
+    deformation = deformation_of(sq)
+    if deformation is not None:  # tapered or bent: sampled along the chord of the bounding sphere
+        bent = sq.deformed[j]
+        t0 = np.maximum((b - h)[p[bent], j[bent]], 0.0)
+        t1 = np.minimum((b + h)[p[bent], j[bent]], L[p[bent]])
+        blocked |= _deformed_blocked(origins, u, p[bent], j[bent], t0, t1, sq, deformation, samples, P)
+        p, j = p[~bent], j[~bent]
     # Then the boxes themselves, in each superquadric's frame: only segments crossing a box can be blocked by
     # it, and only inside it.
     R = quaternion_to_matrix(sq.rotation)[j]  # (K, 3, 3) local → world
@@ -84,7 +92,6 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
     t0, t1 = np.maximum(t0, 0.0), np.minimum(t1, L[p])
     near = t1 > t0
     p, j, o_loc, u_loc, t0, t1 = p[near], j[near], o_loc[near], u_loc[near], t0[near], t1[near]
-    blocked = np.zeros(P, bool)
     blocked[p[_inner_hit(o_loc, u_loc, L[p], sq.scale[j], sq.shape[j])]] = True
     todo = ~blocked[p]
     j, p, o_loc, u_loc, t0, t1 = j[todo], p[todo], o_loc[todo], u_loc[todo], t0[todo], t1[todo]
@@ -94,6 +101,27 @@ def segments_blocked(origins: np.ndarray, ends: np.ndarray, sq: SuperquadricSet,
         lf = log_inside_outside(local, sq.scale[j], sq.shape[j])  # (K, S): pair k is "superquadric" k
         blocked[p[(lf < 0).any(axis=1)]] = True
     return blocked
+
+
+def _deformed_blocked(origins: np.ndarray, u: np.ndarray, p: np.ndarray, j: np.ndarray, t0: np.ndarray,
+                      t1: np.ndarray, sq: SuperquadricSet, deformation: tuple, samples: int, P: int) -> np.ndarray:
+    """Segment–superquadric pairs ``(p, j)`` of tapered or bent superquadrics, sampled over ``[t0, t1]`` and
+    tested in the canonical frame (no box or inscribed body: the deformation curves a ray there)."""
+    out = np.zeros(P, bool)
+    live = t1 > t0
+    p, j, t0, t1 = p[live], j[live], t0[live], t1[live]
+    if not len(p):
+        return out
+    t = t0[:, None] + (t1 - t0)[:, None] * ((np.arange(2 * samples) + 0.5) / (2 * samples))  # (K, S)
+    R = quaternion_to_matrix(sq.rotation)[j]
+    world = origins[p][:, None, :] + t[..., None] * u[p][:, None, :]
+    local = (world - sq.translation[j][:, None, :]) @ R  # row-vector form of Rᵀ(x − t)
+    from ..strokes.deform import undeform
+
+    taper, curvature, direction = (a[j] for a in deformation)
+    x = undeform(local, sq.scale[j][:, None], taper[:, None], curvature[:, None], direction[:, None])
+    out[p[(log_inside_outside(x, sq.scale[j], sq.shape[j]) < 0).any(axis=1)]] = True
+    return out
 
 
 def ray_origins(cameras: list[Camera], points: np.ndarray, view: np.ndarray) -> np.ndarray:
@@ -171,6 +199,6 @@ def union_mask(sq: SuperquadricSet, camera: Camera, samples: int = 48, far: floa
     o, d = camera.rays()
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
     if far is None:
-        reach = np.linalg.norm(sq.translation - camera.center, axis=1) + np.linalg.norm(sq.scale, axis=1)
+        reach = np.linalg.norm(sq.translation - camera.center, axis=1) + bounding_radius(sq)
         far = float(reach.max()) if len(sq) else 1.0
     return segments_blocked(o, o + far * d, sq, samples).reshape(camera.height, camera.width)

@@ -144,6 +144,10 @@ class FitConfig:
     thin: float = option(
         "abstraction", 0.06, "Parts thinner than this share of the object's size (legs, cables, handles) are "
         "drawn by curves, never by superquadrics.", kind=float, limits=(0.0, 0.5))
+    deform: bool = option(
+        "abstraction", True, "Let the fitted superquadrics taper and bend (Barr's deformations) where a plain one "
+        "explains its part poorly and the views say the deformed one draws it better (a spout, a horn); "
+        "--no-deform keeps them plain (for tools that read plain superquadrics only).", kind=bool)
     outline_coverage: float = option(
         "abstraction", 0.9, "Beside the hull's outline, --superquadrics auto fits none when the discovered curves "
         "already draw this share of the silhouettes' outline pixels.", kind=float, limits=(0.0, 1.0))

@@ -211,17 +211,20 @@ def _superquadrics(sq: SuperquadricSet | None) -> list | None:
     if sq is None:
         return None
     return [_f64(sq.scale), _f64(sq.shape), _f64(sq.rotation), _f64(sq.translation), _f64(sq.drawn),
-            _f64(sq.drawn_cells)]
+            _f64(sq.drawn_cells), _f64(sq.tapers), _f64(sq.bends)]
 
 
 def _unsuperquadrics(tensors: list | None) -> SuperquadricSet | None:
-    """Shape parameters, then the drawn flags and the outline cells, as float tensors."""
+    """Shape parameters, then the drawn flags, the outline cells, the tapers and the bends, as float tensors
+    (a checkpoint from before tapering and bending has no tapers and bends)."""
     if tensors is None:
         return None
     a = [t.numpy().astype(np.float64) for t in tensors]
     sq = SuperquadricSet(*[x.reshape(-1, n) for x, n in zip(a[:4], (3, 2, 4, 3))])
     cells = a[5].reshape(len(sq), *OUTLINE_CELLS) > 0.5
-    return replace(sq, outline=a[4].reshape(-1) > 0.5, outline_cells=None if cells.all() else cells)
+    deformed = len(a) > 6 and (a[6].any() or a[7].any())
+    return replace(sq, outline=a[4].reshape(-1) > 0.5, outline_cells=None if cells.all() else cells,
+                   taper=a[6].reshape(-1, 2) if deformed else None, bend=a[7].reshape(-1, 2) if deformed else None)
 
 
 def checkpoint_payload(state: FitState, stage: str | None = None, step: int = 0) -> dict:

@@ -7,13 +7,15 @@ Layout (little-endian)::
            width_px f32
     quantisation: origin 3×f64, position step f64, scale step f64, position bits u8, scale bits u8
     versions 2 and 3: flags u8 (bit 0: curve normals follow, bit 1: superquadric outline flags follow,
-                              bit 2: outline cells follow, bit 3: contour gates follow)
+                              bit 2: outline cells follow, bit 3: contour gates follow, bit 4: tapering and
+                              bending follow)
     bit stream: curve control points (N·12 × position bits), superquadric translations (M·3 × position bits),
                 scales (M·3 × scale bits), shapes (M·2 × 12 bits on [0.1, 1.9]),
                 rotations (M × (2 + 3·14) bits, "smallest three" quaternion components),
                 [curve normals (N·4 × 2·NORMAL_BITS bits: octahedral coordinates, the top code for a zero
                 normal)], [outline flags (M × 1 bit)], [outline cells (M × 8 × 16 bits, row-major)],
-                [contour gates (N × GATE_BITS bits on [0, 1])]
+                [contour gates (N × GATE_BITS bits on [0, 1])], [tapers and bends (M × 4 × DEFORM_BITS bits,
+                symmetric codes with zero exact)]
     trailer: length (u16; versions 3 and 4: u32) + zlib(JSON of provenance and extras); version 4:
              length u32 + xz(JSON length u32 | JSON of provenance, extras and the voxel volumes' objects
              without their ``bits`` | the volumes' packed occupancy, ``occluder`` then ``hull``)
@@ -38,7 +40,8 @@ import zlib
 import numpy as np
 
 from ..errors import StrokeFileError
-from .fileio import (FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, MAX_VOXEL_SIDE, SHAPE_RANGE, VERSION, outline_cell_rows,
+from .fileio import (BEND_LIMIT, FORMAT, MAX_CURVES, MAX_SUPERQUADRICS, MAX_VOXEL_SIDE, SHAPE_RANGE, TAPER_LIMIT,
+                     VERSION, outline_cell_rows,
                      pack_voxels, stroke_set_from_dict, voxel_bytes, voxel_shape, voxels_from_dict, voxels_to_dict)
 from .model import OUTLINE_CELLS, StrokeSet
 
@@ -47,6 +50,9 @@ BINARY_VERSION = 4
 VOLUMES = ("occluder", "hull")
 NORMAL_BITS = 6
 GATE_BITS = 8
+#: Bits of each tapering factor and bend component; ``2**DEFORM_BITS − 2`` steps over a symmetric range, so
+#: the middle code is exactly zero (an undeformed superquadric beside a deformed one stays undeformed).
+DEFORM_BITS = 12
 #: Round-trip tolerance of positions and scales, as a fraction of the scene radius.
 REL_TOLERANCE = 5e-4
 SHAPE_BITS = 12
@@ -157,7 +163,13 @@ def encode(strokes: StrokeSet) -> bytes:
     gates = strokes.curves.gates if n and strokes.curves.gates.any() else None
     if gates is not None:
         bits.append(_pack(_quantise(np.clip(gates, 0.0, 1.0), 0.0, 1.0 / (2**GATE_BITS - 1), GATE_BITS), GATE_BITS))
+    deformed = m and sq.deformed.any()
+    if deformed:
+        for values, limit in ((sq.tapers, TAPER_LIMIT), (sq.bends, BEND_LIMIT)):
+            bits.append(_pack(_quantise(np.clip(values, -limit, limit), -limit, _deform_step(limit), DEFORM_BITS),
+                              DEFORM_BITS))
     flags = (normals is not None) | ((outline is not None) << 1) | ((cells is not None) << 2) | ((gates is not None) << 3)
+    flags |= bool(deformed) << 4
     stream = np.packbits(np.concatenate(bits)).tobytes() if bits else b""
 
     volumes = [(k, v) for k, v in zip(VOLUMES, (strokes.occluder, strokes.hull)) if v is not None]
@@ -183,6 +195,16 @@ def encode(strokes: StrokeSet) -> bytes:
         struct.pack("<I" if version >= 3 else "<H", len(trailer)),
         trailer,
     ])
+
+
+def _deform_step(limit: float) -> float:
+    return 2 * limit / (2**DEFORM_BITS - 2)
+
+
+def _deform_values(codes: np.ndarray, limit: float) -> np.ndarray:
+    step = _deform_step(limit)
+    v = codes * step - limit
+    return np.where(np.abs(v) < 0.5 * step, 0.0, v)
 
 
 MAX_TRAILER_BYTES = 4 << 20  # the inflated trailer (provenance, voxel volumes): a small one must not become gigabytes
@@ -257,10 +279,11 @@ def _decode(data: bytes) -> StrokeSet:
     if version >= 2:
         flags = data[start]
         start += 1
-        if flags & ~15:
+        if flags & ~31:
             raise StrokeFileError(f"unknown flags {flags:#x}")
         n_bits += (n * 4 * 2 * NORMAL_BITS if flags & 1 else 0) + (m if flags & 2 else 0) + (m * N_CELLS if flags & 4 else 0)
         n_bits += n * GATE_BITS if flags & 8 else 0
+        n_bits += m * 4 * DEFORM_BITS if flags & 16 else 0
     stream_len = (n_bits + 7) // 8
     length = struct.Struct("<I" if version >= 3 else "<H")
     if len(data) < start + stream_len + length.size:
@@ -305,6 +328,9 @@ def _decode(data: bytes) -> StrokeSet:
     cells = take(m * N_CELLS, 1).astype(bool).reshape(m, *OUTLINE_CELLS) if flags & 4 else None
     if flags & 8:
         curves_doc["contour"] = (take(n, GATE_BITS) / (2**GATE_BITS - 1)).tolist()
+    tapers = _deform_values(take(m * 2, DEFORM_BITS).reshape(m, 2), TAPER_LIMIT) if flags & 16 else np.zeros((m, 2))
+    bends = _deform_values(take(m * 2, DEFORM_BITS).reshape(m, 2), BEND_LIMIT) if flags & 16 else np.zeros((m, 2))
+    bends *= np.minimum(1.0, BEND_LIMIT / np.maximum(np.linalg.norm(bends, axis=1, keepdims=True), 1e-12))
     extra = meta.get("extra", {}) if isinstance(meta.get("extra", {}), dict) else {}
     doc = {
         "format": FORMAT, "version": VERSION,
@@ -315,7 +341,9 @@ def _decode(data: bytes) -> StrokeSet:
         "superquadrics": [{"scale": scale[i].tolist(), "shape": shape[i].tolist(), "rotation": rots[i].tolist(),
                            "translation": trans[i].tolist(), **({} if drawn[i] else {"outline": False}),
                            **({} if cells is None else
-                              {"outline_cells": outline_cell_rows(cells[i])})}
+                              {"outline_cells": outline_cell_rows(cells[i])}),
+                           **({"taper": tapers[i].tolist()} if tapers[i].any() else {}),
+                           **({"bend": bends[i].tolist()} if bends[i].any() else {})}
                           for i in range(m)],
         "provenance": meta.get("provenance", {}),
         **{k: meta[k] for k in VOLUMES if k in meta and version < 4},

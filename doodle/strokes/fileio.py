@@ -24,6 +24,9 @@ MAX_CURVES = 65535
 MAX_SUPERQUADRICS = 255
 MAX_FILE_BYTES = 64 * 1024 * 1024
 SHAPE_RANGE = (0.1, 1.9)
+#: A superquadric's tapering factors and bend (radians over its half-length) in a file (:mod:`.deform`).
+TAPER_LIMIT = 1.0
+BEND_LIMIT = math.pi / 2
 #: Largest coordinate (scene units) and radius the readers accept: far beyond any capture, far below what
 #: float32 drawing and the binary format's 32-bit quantisation can no longer handle.
 MAX_COORD = 1e6
@@ -187,6 +190,19 @@ def _parse(data: Any) -> StrokeSet:
             if sq.outline_cells is None:
                 sq.outline_cells = np.ones((m, *OUTLINE_CELLS), bool)
             sq.outline_cells[i] = _outline_cells(item["outline_cells"], f"{name}.outline_cells")
+        if "taper" in item:
+            if sq.taper is None:
+                sq.taper = np.zeros((m, 2))
+            sq.taper[i] = [_number(v, f"{name}.taper[{k}]", -TAPER_LIMIT, TAPER_LIMIT) for k, v in
+                           enumerate(_checked_list(item["taper"], 2, f"{name}.taper"))]
+        if "bend" in item:
+            if sq.bend is None:
+                sq.bend = np.zeros((m, 2))
+            sq.bend[i] = [_number(v, f"{name}.bend[{k}]", -BEND_LIMIT, BEND_LIMIT) for k, v in
+                          enumerate(_checked_list(item["bend"], 2, f"{name}.bend"))]
+            if float(np.linalg.norm(sq.bend[i])) > BEND_LIMIT + 1e-9:
+                raise _Invalid(f"{name}.bend: bends by {np.linalg.norm(sq.bend[i]):.4g} rad, more than "
+                               f"{BEND_LIMIT:.4g} (a quarter turn over the half-length)")
 
     provenance = top.get("provenance", {})
     if not isinstance(provenance, dict):
@@ -354,7 +370,9 @@ def stroke_set_to_dict(strokes: StrokeSet) -> dict:
         "superquadrics": [
             {"scale": _floats(sq.scale[i]), "shape": _floats(sq.shape[i]), "rotation": _floats(sq.rotation[i]),
              "translation": _floats(sq.translation[i]), **({} if sq.drawn[i] else {"outline": False}),
-             **({} if cells[i].all() else {"outline_cells": outline_cell_rows(cells[i])})}
+             **({} if cells[i].all() else {"outline_cells": outline_cell_rows(cells[i])}),
+             **({"taper": _floats(sq.tapers[i])} if sq.tapers[i].any() else {}),
+             **({"bend": _floats(sq.bends[i])} if sq.bends[i].any() else {})}
             for i in range(len(sq))
         ],
         "provenance": strokes.provenance,

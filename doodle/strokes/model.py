@@ -92,6 +92,10 @@ class SuperquadricSet:
     (:data:`OUTLINE_CELLS`). A superquadric only approximates its part: where its
     contour strays from the object's outline (a sphere's rim across the neck it does not have), the fit
     leaves those cells out, and the outline is drawn only where the views confirm it.
+
+    ``taper`` ``(M, 2)`` and ``bend`` ``(M, 2)`` (optional, default all zero): Barr's tapering and bending of
+    each one's local frame along its ``z`` axis (:mod:`doodle.strokes.deform`), for parts a plain
+    superquadric explains poorly (a lamp shade, a spout, a horn).
     """
 
     scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -101,9 +105,26 @@ class SuperquadricSet:
     translation: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     outline: np.ndarray | None = None
     outline_cells: np.ndarray | None = None
+    taper: np.ndarray | None = None
+    bend: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.scale.shape[0])
+
+    @property
+    def tapers(self) -> np.ndarray:
+        """``(M, 2)`` tapering factors (zeros without ``taper``)."""
+        return np.zeros((len(self), 2)) if self.taper is None else np.asarray(self.taper, np.float64)
+
+    @property
+    def bends(self) -> np.ndarray:
+        """``(M, 2)`` bend vectors (zeros without ``bend``)."""
+        return np.zeros((len(self), 2)) if self.bend is None else np.asarray(self.bend, np.float64)
+
+    @property
+    def deformed(self) -> np.ndarray:
+        """``(M,)`` bool: which ones are tapered or bent."""
+        return (self.tapers != 0).any(axis=1) | (self.bends != 0).any(axis=1)
 
     @property
     def drawn(self) -> np.ndarray:
@@ -119,7 +140,9 @@ class SuperquadricSet:
         """The superquadrics selected by a boolean mask or index array."""
         return SuperquadricSet(self.scale[keep], self.shape[keep], self.rotation[keep], self.translation[keep],
                                None if self.outline is None else np.asarray(self.outline, bool)[keep],
-                               None if self.outline_cells is None else np.asarray(self.outline_cells, bool)[keep])
+                               None if self.outline_cells is None else np.asarray(self.outline_cells, bool)[keep],
+                               None if self.taper is None else np.asarray(self.taper)[keep],
+                               None if self.bend is None else np.asarray(self.bend)[keep])
 
 
 @dataclass
@@ -175,7 +198,9 @@ class StrokeSet:
         """Axis-aligned box of the curve control points and superquadric extents (a safe bound)."""
         pts = [self.curves.control_points.reshape(-1, 3)]
         if len(self.superquadrics):
-            reach = np.linalg.norm(self.superquadrics.scale, axis=1, keepdims=True)  # bounding sphere
+            from .superquadric import bounding_radius
+
+            reach = bounding_radius(self.superquadrics)[:, None]  # bounding sphere
             pts += [self.superquadrics.translation - reach, self.superquadrics.translation + reach]
         allp = np.concatenate(pts, axis=0)
         if allp.size == 0:

@@ -9,6 +9,11 @@ with ``f = 1`` on the surface, ``f < 1`` inside. All functions work in log space
 gradients finite for ε in [0.1, 1.9], points on the axes (where ``x^(2/ε)`` has an unbounded derivative
 for ε > 1) and points far away (where ``f`` overflows float32 for small ε). The price is a tiny bias:
 ``x²`` is replaced by ``x² + EPS_SQ`` (relative to the scale), i.e. at most ``EPS_SQ^(1/ε)`` in ``f``.
+
+A tapered or bent superquadric (:mod:`doodle.strokes.deform`) is tested in its *canonical* frame: world
+points are taken to the local frame and undeformed there (:func:`canonical`), where ``f`` is the plain one's.
+Its ``deformation`` travels as ``(taper (M, 2), curvature (M,), direction (M, 2))``, or ``None`` when no
+superquadric of a set is deformed (the plain path, bit for bit as before).
 """
 
 from __future__ import annotations
@@ -17,7 +22,10 @@ import math
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from ..arrays import check_shape, ops
+from .deform import bend_axis, bound_factor, deform, deformed_normals, undeform
 
 if TYPE_CHECKING:  # annotations only: numpy callers never import torch
     import torch
@@ -149,8 +157,38 @@ def local_gradient_log(x: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor
     return weights * common
 
 
+def deformation_of(sq) -> tuple | None:
+    """``(taper, curvature, direction)`` of a :class:`~doodle.strokes.model.SuperquadricSet`'s tapering and
+    bending (numpy), or ``None`` when none of them is deformed."""
+    if not len(sq) or not sq.deformed.any():
+        return None
+    return (sq.tapers, *bend_axis(sq.bends, sq.scale))
+
+
+def canonical(points, scale, rotation, translation, deformation: tuple | None = None):
+    """World points ``(P, 3)`` (or ``(M, P, 3)``, each superquadric its own) in each superquadric's canonical
+    frame, ``(M, P, 3)``: :func:`world_to_local`, then undeformed (``deformation``: see the module doc)."""
+    if points.ndim == 3:
+        R = quaternion_to_matrix(rotation)
+        x = (points - translation[:, None, :]) @ R
+    else:
+        x = world_to_local(points, rotation, translation)
+    if deformation is None:
+        return x
+    taper, curvature, direction = deformation
+    return undeform(x, scale[:, None, :], taper[:, None, :], curvature[:, None], direction[:, None, :])
+
+
+def bounding_radius(sq) -> np.ndarray:
+    """``(M,)`` radius about each superquadric's centre that holds it (``|a|`` for a plain one, which holds
+    the box ``|x_i| ≤ a_i``; grown by :func:`~doodle.strokes.deform.bound_factor` for a deformed one)."""
+    reach = np.linalg.norm(sq.scale, axis=1)
+    return reach * bound_factor(sq.tapers, sq.bends) if len(sq) and sq.deformed.any() else reach
+
+
 def union_log_inside_outside(
-    points: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor
+    points: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor,
+    deformation: tuple | None = None,
 ) -> torch.Tensor:
     """``log min_i f_i`` of world points: the union of superquadrics. ``(P, 3)`` → ``(P,)``.
 
@@ -159,7 +197,7 @@ def union_log_inside_outside(
     xp = ops(points)
     if scale.shape[0] == 0:
         return xp.full(points.shape[:-1], math.inf, points)
-    x = world_to_local(points, rotation, translation)
+    x = canonical(points, scale, rotation, translation, deformation)
     return xp.min(log_inside_outside(x, scale, shape), 0)
 
 
@@ -220,3 +258,15 @@ def surface_points_at(
     p = xp.stack([c1 * _signed_pow(co, e2), c1 * _signed_pow(so, e2), _signed_pow(se, e1)], -1) * scale
     n = xp.stack([n1 * _signed_pow(co, 2 - e2), n1 * _signed_pow(so, 2 - e2), _signed_pow(se, 2 - e1)], -1) / scale
     return p, n / xp.clip_min(xp.norm(n, -1, True), 1e-12)
+
+
+def deformed_surface_points_at(eta, omega, scale, shape, deformation: tuple | None = None):
+    """:func:`surface_points_at` of tapered and bent superquadrics (numpy): points and unit normals in the
+    local frame after the deformation (``(taper (..., 2), curvature (...), direction (..., 2))`` broadcast
+    with the points; ``None``: plain)."""
+    p, n = surface_points_at(eta, omega, scale, shape)
+    if deformation is None:
+        return p, n
+    taper, curvature, direction = deformation
+    n = deformed_normals(p, n, scale, taper, curvature, direction)
+    return deform(p, scale, taper, curvature, direction), n

@@ -58,10 +58,30 @@ def _rotate(q, p):
     return tuple(sum(R[r][c] * p[c] for c in range(3)) for r in range(3))
 
 
+def _sinc(v):
+    return 1.0 if abs(v) < 1e-12 else math.sin(v) / v
+
+
+def _deform(p, a, taper, bend):
+    """Barr's tapering, then bending, of a local point (``doodle.strokes.deform``: the same formulas)."""
+    x, y, z = p
+    x, y = x * (1 + taper[0] * z / a[2]), y * (1 + taper[1] * z / a[2])
+    angle = math.hypot(*bend)
+    if angle < 1e-12:
+        return x, y, z
+    k, dx, dy = angle / a[2], bend[0] / angle, bend[1] / angle
+    g, lever = k * z, 1 - k * (x * dx + y * dy)
+    s = z * z * 0.5 * _sinc(0.5 * g) ** 2 * k * lever
+    return x + s * dx, y + s * dy, z * _sinc(g) * lever
+
+
 def superquadric_mesh(sq, n_eta=24, n_omega=48):
-    """Vertices and triangles of one superquadric (``scale``, ``shape``, ``rotation``, ``translation``): the
-    same closed mesh as ``doodle export3d`` writes (``doodle.exporters.scene3d.superquadric_mesh``)."""
+    """Vertices and triangles of one superquadric (``scale``, ``shape``, ``rotation``, ``translation``, optional
+    ``taper`` and ``bend``): the same closed mesh as ``doodle export3d`` writes
+    (``doodle.exporters.scene3d.superquadric_mesh``)."""
     a = [float(v) for v in sq["scale"]]
+    taper = [float(v) for v in sq.get("taper", (0.0, 0.0))]
+    bend = [float(v) for v in sq.get("bend", (0.0, 0.0))]
     e1, e2 = (float(v) for v in sq["shape"])
     t = [float(v) for v in sq["translation"]]
 
@@ -69,7 +89,7 @@ def superquadric_mesh(sq, n_eta=24, n_omega=48):
         c1 = _signed_pow(math.cos(eta), e1)
         local = (a[0] * c1 * _signed_pow(math.cos(omega), e2), a[1] * c1 * _signed_pow(math.sin(omega), e2),
                  a[2] * _signed_pow(math.sin(eta), e1))
-        return tuple(r + o for r, o in zip(_rotate(sq["rotation"], local), t))
+        return tuple(r + o for r, o in zip(_rotate(sq["rotation"], _deform(local, a, taper, bend)), t))
 
     etas = [_warp(-math.pi / 2 + math.pi * (i + 1) / n_eta, e1) for i in range(n_eta - 1)]
     omegas = [_warp(-math.pi + 2 * math.pi * j / n_omega, e2) for j in range(n_omega)]

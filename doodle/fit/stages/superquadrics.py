@@ -57,13 +57,16 @@ def run(state: FitState) -> None:
 
         grid, occupied = state.carving.grid, state.carving.occupied
         found = abstract_volume(grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit,
-                                cfg.level.superquadric_gain, seed=cfg.seed, log=say).superquadrics
-        sq = SuperquadricParams.from_set(found).to_set()  # as the gradient paths store them (float32)
+                                cfg.level.superquadric_gain, seed=cfg.seed, deform=cfg.deform, log=say)
+        sq = SuperquadricParams.from_set(found.superquadrics).to_set()  # as the gradient paths store them (float32)
+        plain = None if found.plain is None else SuperquadricParams.from_set(found.plain).to_set()
     else:
-        sq = _fit_to_silhouettes(state, sq_scene, interior)
+        sq, plain = _fit_to_silhouettes(state, sq_scene, interior), None
     if cfg.superquadrics == "auto" and (plan.discover or mode == "abstract"):
-        sq = _judge_outlines(state, sq)
+        sq = _judge_outlines(state, sq, plain)
         state.judged = True
+    elif plain is not None:  # not judged: kept plain (a deformation is kept only where it draws better)
+        sq = plain
     state.superquadrics = sq
     say(f"superquadrics: {len(sq)}, {int(sq.drawn.sum())} drawn (training silhouette IoU "
         f"{silhouette_iou(sq, sq_scene.cameras, sq_scene.masks):.3f})")
@@ -118,8 +121,9 @@ def _fit_to_silhouettes(state: FitState, sq_scene, interior: np.ndarray) -> Supe
     return params.to_set()
 
 
-def _judge_outlines(state: FitState, sq: SuperquadricSet) -> SuperquadricSet:
-    """Which superquadrics draw their outline (see the module doc)."""
+def _judge_outlines(state: FitState, sq: SuperquadricSet, plain: SuperquadricSet | None = None) -> SuperquadricSet:
+    """Which superquadrics draw their outline, and (``plain``: the abstraction's plain fits of its tapered and
+    bent ones) which stay deformed (see the module doc)."""
     from ..volume.outlines import abstraction_outlines, keep_outlines
 
     cfg, found = state.config, state.found
@@ -134,7 +138,7 @@ def _judge_outlines(state: FitState, sq: SuperquadricSet) -> SuperquadricSet:
 
             crisp[crisp] = ~on_smooth_faces(start[crisp], state.carving.grid, state.carving.occupied)
         return abstraction_outlines(sq, CurveSet(start[crisp], cfg.width_px), state.frame, *state.judge,
-                                    occluder=state.occluder, log=state.say)
+                                    occluder=state.occluder, log=state.say, plain=plain)
     return keep_outlines(sq, CurveSet(start, cfg.width_px, found.normals, contour), state.frame, *state.judge,
                          curves_beside=lambda s: curves_beside(state, s), occluder=state.occluder, hull=state.hull,
                          log=state.say)

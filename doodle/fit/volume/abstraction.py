@@ -13,9 +13,16 @@ Marching-Primitives (CVPR 2023) and EMS (CVPR 2022) recover them from a distance
    part's voxels inside, the empty voxels outside, the other parts' voxels weakly outside (overlap is
    allowed, a blob over two parts is not). The occupancy of a point is a sigmoid of its *radial distance*
    ``|x| (1 − f^(−ε₁/2))`` to the surface, which is metric (a voxel is a voxel whatever the shape).
+   A part its plain superquadric explains poorly (under :data:`DEFORM_BELOW`) is fitted again tapered and
+   bent (Barr's deformations, :mod:`doodle.strokes.deform`; each of its axes as the deformation's axis), and
+   the deformed fit kept beside the plain one when it leaves at most :data:`DEFORM_RESIDUAL` of what the
+   plain one left unexplained.
 4. Parts are taken largest first while each adds at least ``min_gain`` of the thick part's volume to the
    union's IoU (the count is chosen by the volume, not given); a superquadric that explains its own part
-   poorly (IoU under :data:`MIN_PART_IOU`) is left out, and its part is left to the curves.
+   poorly (IoU under :data:`MIN_PART_IOU`) is left out, and its part is left to the curves. The plain fits
+   decide, so the parts are the plain abstraction's, and each deformed one has a plain fit to fall back on
+   (:attr:`Abstraction.plain`): the views judge which draws the part better
+   (:func:`~doodle.fit.volume.outlines.abstraction_outlines`), part by part.
 5. The kept ones are refined together on the union's occupancy (a soft maximum over them), at the full
    grid's voxels near the thick part's surface: the parts are found on a coarse grid, the outline is
    placed on the fine one.
@@ -25,6 +32,7 @@ Everything is numpy in, numpy out; torch does the fitting (CPU, about a second o
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Callable
 
@@ -33,7 +41,8 @@ import torch
 from scipy import ndimage
 
 from ...strokes.model import SuperquadricSet
-from ...strokes.superquadric import log_inside_outside, matrix_to_quaternion, quaternion_to_matrix
+from ...strokes.superquadric import (canonical, deformation_of, log_inside_outside, matrix_to_quaternion,
+                                     quaternion_to_matrix)
 from ..gradient.params import SuperquadricParams
 from .carve import coarsen
 
@@ -48,6 +57,17 @@ OTHER_PART_WEIGHT = 0.1
 #: The starts of each part's superquadric: shape ``(ε₁, ε₂)``, frame (the part's principal axes, or the grid's,
 #: which are fitted to the object's box: a square plate's principal axes are any two in its plane) and the
 #: factor from a variance along an axis to the half-size (5 for a ball, 3 for a box).
+#: A part whose plain superquadric explains less than this IoU of it is tried tapered and bent (Barr's
+#: deformations, :mod:`doodle.strokes.deform`), and the deformed one kept when it leaves at most
+#: :data:`DEFORM_RESIDUAL` of what the plain one left unexplained (a cone: 0.28 → 0.11; a ball on a coarse
+#: grid gains a few voxels by any extra freedom, 0.40 → 0.37, and stays plain).
+DEFORM_BELOW = 0.8
+DEFORM_RESIDUAL = 2 / 3
+#: Parts smaller than this (working-grid voxels) stay plain: a few dozen voxels are an ear or a knob at a
+#: few voxels across, where any extra freedom fits the voxels' steps.
+DEFORM_MIN_VOXELS = 200
+#: The shape of the deformed fits' flat-ended starts (a cylinder's).
+FLAT_ENDS = np.array([0.25, 1.0])
 STARTS = (((1.0, 1.0), "principal", 5.0), ((0.25, 1.0), "principal", 4.0), ((0.25, 0.25), "principal", 3.0),
           ((0.25, 0.25), "grid", 3.0), ((0.25, 1.0), "grid", 4.0))
 
@@ -63,6 +83,9 @@ class Abstraction:
     """Parts the thick part was split into (some may be left to curves)."""
     thick_share: float
     """Share of the hull's volume in its thick part."""
+    plain: SuperquadricSet | None = None
+    """Where some are tapered or bent: the same set with each deformed one's plain fit in its place (refined
+    the same way), for a judge that sees the views to choose part by part; ``None`` otherwise."""
 
 
 def ball(r: int) -> np.ndarray:
@@ -122,13 +145,13 @@ def _initial(points: np.ndarray, frame: np.ndarray | None, factor: float) -> tup
     return np.sqrt(np.maximum(var, 1e-12) * factor), matrix_to_quaternion(frame), c
 
 
-def radial_distance(points: torch.Tensor, scale, shape, rotation, translation) -> torch.Tensor:
+def radial_distance(points: torch.Tensor, scale, shape, rotation, translation,
+                    deformation: tuple | None = None) -> torch.Tensor:
     """Approximate signed distance ``(M, P)`` of world points ``(P, 3)`` (or ``(M, P, 3)``, each superquadric
     its own points) to each superquadric: along the ray from its centre, ``|x| (1 − f^(−ε₁/2))`` (negative
-    inside). Exact for a sphere; for others it errs by the angle between the ray and the normal."""
-    R = quaternion_to_matrix(rotation)
-    d = (points[None] if points.dim() == 2 else points) - translation[:, None, :]
-    x = d @ R
+    inside). Exact for a sphere; for others it errs by the angle between the ray and the normal, and for a
+    tapered or bent one (measured in its canonical frame) by the deformation's stretch."""
+    x = canonical(points, scale, rotation, translation, deformation)
     lf = log_inside_outside(x, scale, shape)
     r = x.norm(dim=-1)
     return r * (1 - torch.exp((-0.5 * shape[:, None, 0] * lf).clamp(max=30.0)))
@@ -154,6 +177,8 @@ def _loss(d: torch.Tensor, target: torch.Tensor, weight: torch.Tensor, tau: floa
 def _optimise(params: SuperquadricParams, loss_fn: Callable[[], torch.Tensor], steps: int, lr: float) -> None:
     groups = [{"params": [params.log_scale, params.raw_shape, params.rotation], "lr": lr},
               {"params": [params.translation], "lr": lr * float(params.log_scale.detach().exp().mean())}]
+    if params.deformable:
+        groups.append({"params": [params.raw_taper, params.raw_bend, params.bend_direction], "lr": lr})
     opt = torch.optim.Adam(groups)
     base = [g["lr"] for g in opt.param_groups]
     for step in range(steps):
@@ -169,7 +194,10 @@ def _distance(points: np.ndarray, sq: SuperquadricSet) -> np.ndarray:
     """:func:`radial_distance` ``(M, P)`` of world points ``(P, 3)`` to a superquadric set, in numpy."""
     with torch.no_grad():
         t = [torch.from_numpy(np.asarray(a, np.float32)) for a in (sq.scale, sq.shape, sq.rotation, sq.translation)]
-        return radial_distance(torch.from_numpy(points.astype(np.float32)), *t).numpy()
+        deformation = deformation_of(sq)
+        if deformation is not None:
+            deformation = tuple(torch.from_numpy(np.asarray(a, np.float32)) for a in deformation)
+        return radial_distance(torch.from_numpy(points.astype(np.float32)), *t, deformation).numpy()
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -178,7 +206,7 @@ def _iou(a: np.ndarray, b: np.ndarray) -> float:
 
 def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied: np.ndarray, thin: float = 0.06,
                     max_count: int = 8, min_gain: float = 0.01, steps: int = 100, seed: int = 0,
-                    log: Callable[[str], None] = lambda m: None) -> Abstraction:
+                    deform: bool = True, log: Callable[[str], None] = lambda m: None) -> Abstraction:
     """Superquadrics that abstract the volume ``occupied`` (see the module doc).
 
     Args:
@@ -188,6 +216,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         max_count: at most this many superquadrics.
         min_gain: a superquadric is kept when it raises the union's IoU with the thick part by this much.
         steps: Adam steps of each fit (per part, then together).
+        deform: also fit tapered and bent superquadrics where a plain one explains its part poorly.
     """
     rng = np.random.default_rng(seed)
     torch.manual_seed(seed)
@@ -216,6 +245,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
     # is opened by half the thin parts' radius
     sliver = ball(max(1, radius // 2))
     found: list[SuperquadricSet] = []
+    plains: list[SuperquadricSet] = []  # each one's plain fit
     union = np.zeros(len(cells), bool)  # within a voxel of the union
     best, parts, tried = 0.0, 0, np.zeros(thick.shape, bool)
     # Marching-Primitives' loop: split what is not yet explained into parts, fit the largest, repeat.
@@ -231,7 +261,8 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         part = int(np.argmax(sizes)) + 1
         parts += 1
         mine = labels == part
-        sq, own_iou = _fit_part(mine, thick, covered, care, c_origin, cvox, axes, tau, radius, steps, rng)
+        plain, own_iou, deformed = _fit_part(mine, thick, covered, care, c_origin, cvox, axes, tau, radius, steps,
+                                             rng)
         # The split may cut one body in two (a mug's, at a bulge of its hull): one superquadric over the part
         # and its largest neighbour wins when it explains both about as well as the part's own does one.
         touching = np.unique(labels[ndimage.binary_dilation(mine) & ~mine])
@@ -239,10 +270,11 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         if len(touching):
             other = touching[np.argmax(sizes[touching - 1])]
             both = mine | (labels == other)
-            sq2, iou2 = _fit_part(both, thick, covered, care, c_origin, cvox, axes, tau, radius, steps, rng)
+            plain2, iou2, deformed2 = _fit_part(both, thick, covered, care, c_origin, cvox, axes, tau, radius, steps,
+                                                rng)
             if iou2 >= max(MERGE_IOU, own_iou - 0.02):
-                sq, own_iou, mine = sq2, iou2, both
-        d = _distance(centres, sq)[0]
+                plain, own_iou, mine, deformed = plain2, iou2, both, deformed2
+        d = _distance(centres, plain)[0]  # the plain fits decide (a deformed one is judged on the views)
         trial = union | (d <= cvox)
         gain = (trial & shell).sum() / max(shell.sum(), 1) - best
         if own_iou < MIN_PART_IOU or gain < min_gain:
@@ -250,32 +282,55 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
                 + (f"explains {own_iou:.0%} of it)" if own_iou < MIN_PART_IOU else f"adds {gain:.1%} of the surface)"))
             tried |= mine
             continue
-        found.append(sq)
+        # A kept part its plain fit explains poorly is also fitted tapered and bent
+        poor = deform and own_iou < DEFORM_BELOW and mine.sum() >= DEFORM_MIN_VOXELS
+        better = deformed() if poor else None
+        found.append(plain if better is None else better)
+        plains.append(plain)
         union, best = trial, best + gain
     if not found:
         return Abstraction(SuperquadricSet(), 0.0, parts, thick_share)
     sq = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in found]) for a in ("scale", "shape", "rotation",
                                                                                     "translation")))
+    if any(f.deformed.any() for f in found):
+        sq.taper, sq.bend = np.concatenate([f.tapers for f in found]), np.concatenate([f.bends for f in found])
     # The parts are found on the working grid; the union is refined on the full one, near its surface, where
     # a voxel of the working grid is more than the 2 px a line may stray (the cow's held-out line precision
     # 0.878 refined on the working grid, 0.941 fitted on the full one, 2.5 times slower).
     points, inside = _surface_samples(occupied, thick, k, origin, voxel, axes, rng)
     far = rng.choice(len(centres), min(len(centres), 4000), replace=False)  # and some of everything else
     points, inside = np.concatenate([points, centres[far]]), np.concatenate([inside, in_thick[far]])
-    sq = _refine_union(sq, points, inside, 0.5 * voxel, steps, rng)
+    plain = None
+    if sq.deformed.any():
+        # the plain abstraction, refined as without deformations; then the deformed ones put in their plain
+        # fits' places and refined among the others, which stay as they are
+        plain = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in plains]) for a in ("scale", "shape",
+                                                                                        "rotation", "translation")))
+        plain = _refine_union(plain, points, inside, 0.5 * voxel, steps, copy.deepcopy(rng))
+        bent = sq.deformed
+        start = SuperquadricSet(*(np.where(bent.reshape(-1, *([1] * (getattr(sq, a).ndim - 1))), getattr(sq, a),
+                                           getattr(plain, a)) for a in ("scale", "shape", "rotation", "translation")),
+                                taper=sq.tapers, bend=sq.bends)
+        sq = _refine_union(start, points, inside, 0.5 * voxel, steps // 2, rng, only=bent)
+    else:
+        sq = _refine_union(sq, points, inside, 0.5 * voxel, steps, rng)
     iou = _iou((_distance(centres, sq) <= 0).any(axis=0), in_thick)
     log(f"superquadrics: {len(sq)} abstract the volume (IoU {iou:.3f} with its thick part, {thick_share:.0%} of "
         "the hull)")
-    return Abstraction(sq, iou, parts, thick_share)
+    return Abstraction(sq, iou, parts, thick_share, plain)
 
 
 def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np.ndarray, origin: np.ndarray,
               voxel: float, axes: np.ndarray, tau: float, grow: int, steps: int, rng: np.random.Generator,
-              max_points: int = 2000) -> tuple[SuperquadricSet, float]:
+              max_points: int = 2000
+              ) -> tuple[SuperquadricSet, float, Callable[[], SuperquadricSet | None]]:
     """One superquadric for the part ``mine``: its voxels inside, the empty voxels around it outside, the rest
     of the thick part weakly outside, what is already explained (``covered``) and thin parts not at all.
-    Returns it and its IoU with the part (what it holds of the part, over the part and the empty voxels it
-    spills into)."""
+    Returns it, its IoU with the part (what it holds of the part, over the part and the empty voxels it spills
+    into), and a function that fits the part again tapered and bent, giving the deformed superquadric or
+    ``None`` when it explains the part too little better (:data:`DEFORM_RESIDUAL`): called only for parts the
+    abstraction keeps. The parts and their count are chosen by the plain fits, so a judge that turns every
+    deformed one back to its plain fit gets the plain abstraction."""
     ijk = np.argwhere(mine)
     lo = np.maximum(ijk.min(axis=0) - 2 * grow, 0)
     hi = np.minimum(ijk.max(axis=0) + 2 * grow + 1, mine.shape)
@@ -301,9 +356,44 @@ def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np
     with torch.no_grad():
         best = int(torch.argmin(_loss(radial_distance(P, *params.values()), T, W, tau)))
     sq = params.to_set().subset(np.array([best]))
-    inside = _distance(to_world(ijk.astype(np.float64)), sq)[0] <= 0
-    spill = _distance(to_world(np.argwhere(~thick[box] & care[box]) + lo), sq)[0] <= 0
-    return sq, float(inside.sum() / (len(ijk) + spill.sum()))
+    inside_pts, spill_pts = to_world(ijk.astype(np.float64)), to_world(np.argwhere(~thick[box] & care[box]) + lo)
+
+    def part_iou(s: SuperquadricSet) -> np.ndarray:
+        """``(M,)``: each of ``s``'s IoU with the part."""
+        return (_distance(inside_pts, s) <= 0).sum(1) / (len(ijk) + (_distance(spill_pts, s) <= 0).sum(1))
+
+    iou = float(part_iou(sq)[0])
+
+    def deformed() -> SuperquadricSet | None:
+        # A cone-like or curved part: the plain one's fit, tapered and bent along each of its axes in turn
+        # (the deformations act along the local z: a squat cone's axis is its shortest). A bend's plane gets no
+        # gradient while it is unbent, so each axis starts bending in two perpendicular planes.
+        deformable = SuperquadricParams.from_set(_deformed_starts(sq), deformable=True)
+        _optimise(deformable, lambda: _loss(radial_distance(P, *deformable.values(), deformable.deformation()),
+                                            T, W, tau), steps, 0.03)
+        tries = deformable.to_set()
+        scores = part_iou(tries)
+        k = int(np.argmax(scores))
+        return tries.subset(np.array([k])) if 1 - scores[k] <= DEFORM_RESIDUAL * (1 - iou) else None
+
+    return sq, iou, deformed
+
+
+def _deformed_starts(sq: SuperquadricSet) -> SuperquadricSet:
+    """Nine starts of a deformed fit from one plain superquadric: its frame turned so that each of its axes is
+    the local z in turn (a cyclic permutation of the axes), with flat ends (a cone is a tapered cylinder)
+    slightly bent toward the new x and toward the new y, and with the plain one's shape (a spout with a round
+    tip: flat-ended fits of the teapot's come out box-like, ε₁ 0.3, and draw no outline)."""
+    R = quaternion_to_matrix(sq.rotation[0])
+    rows = []
+    for shift in range(3):
+        order = np.roll(np.arange(3), -shift)
+        q = matrix_to_quaternion(R[:, order])
+        for shape, bend in ((FLAT_ENDS, (1e-3, 0.0)), (FLAT_ENDS, (0.0, 1e-3)), (sq.shape[0], (1e-3, 0.0))):
+            rows.append((sq.scale[0][order], shape, q, sq.translation[0], bend))
+    out = SuperquadricSet(*(np.array([r[k] for r in rows]) for k in range(4)))
+    out.taper, out.bend = np.zeros((len(rows), 2)), np.array([r[4] for r in rows])
+    return out
 
 
 def _surface_samples(occupied: np.ndarray, thick: np.ndarray, k: int, origin: np.ndarray, voxel: float,
@@ -328,15 +418,28 @@ def _surface_samples(occupied: np.ndarray, thick: np.ndarray, k: int, origin: np
 
 
 def _refine_union(sq: SuperquadricSet, centres: np.ndarray, in_thick: np.ndarray, tau: float, steps: int,
-                  rng: np.random.Generator, max_points: int = 20000) -> SuperquadricSet:
-    """All superquadrics together on the union's occupancy against the thick part, at points ``centres``."""
+                  rng: np.random.Generator, max_points: int = 20000, only: np.ndarray | None = None
+                  ) -> SuperquadricSet:
+    """All superquadrics together on the union's occupancy against the thick part, at points ``centres``;
+    with ``only`` (``(M,)`` bool), only those move (the others hide and explain as they are)."""
     sel = rng.choice(len(centres), min(len(centres), max_points), replace=False)
     C = torch.from_numpy(centres[sel].astype(np.float32))
     Y = torch.from_numpy(in_thick[sel].astype(np.float32))[None]
-    joint = SuperquadricParams(sq.scale, sq.shape, sq.rotation, sq.translation)
+    deformed = sq.deformed
+    joint = SuperquadricParams.from_set(sq, deformable=bool(deformed.any()))
+    moving = {}
+    if joint.deformable:  # the plain ones stay plain
+        for tensor in (joint.raw_taper, joint.raw_bend, joint.bend_direction):
+            moving[tensor] = deformed
+    if only is not None:
+        for tensor in (joint.log_scale, joint.raw_shape, joint.rotation, joint.translation):
+            moving[tensor] = only
+    for tensor, rows in moving.items():
+        keep = torch.from_numpy(np.asarray(rows, np.float32))
+        tensor.register_hook(lambda g, keep=keep: g * keep.reshape(-1, *([1] * (g.dim() - 1))))
 
     def loss() -> torch.Tensor:
-        d = radial_distance(C, *joint.values())  # (M, P)
+        d = radial_distance(C, *joint.values(), joint.deformation())  # (M, P)
         soft_min = -tau * torch.logsumexp(-d / tau, dim=0)  # the union's distance, smoothly
         return _loss(soft_min[None], Y, torch.ones_like(Y), tau).sum()
 

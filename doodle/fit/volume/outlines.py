@@ -138,30 +138,86 @@ ABSTRACT_MIN_PRECISION = 0.6
 by cell, so a rough one (the lamp's shade, a cone no superquadric fits: 63 %) draws where it is right."""
 
 MAX_OUTLINE_ON_CURVES = 0.75
+#: A tapered or bent superquadric whose outline lies this much on the object's lines draws it, whatever the
+#: crisp curves draw (see ``_drawn``).
+DEFORMED_MIN_PRECISION = 0.9
+#: Both shape exponents at least this: a superquadric without edges of its own (0.1 is a box's, 1 a ball's).
+SMOOTH_SHAPE = 0.5
 """Beside the abstraction, a superquadric whose outline the crisp feature curves draw this much of only hides."""
 
 
 def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
                          lines: list[np.ndarray], masks: list[np.ndarray], occluder: Voxels | None = None,
-                         log: Callable[[str], None] = lambda m: None) -> SuperquadricSet:
+                         log: Callable[[str], None] = lambda m: None, plain: SuperquadricSet | None = None
+                         ) -> SuperquadricSet:
     """Which superquadrics of the abstraction draw their outline (``sq`` with ``outline`` set): every one
     unless it reads as a blob (under :data:`ABSTRACT_MIN_PRECISION` of it on the object's ``lines``), or the
     ``crisp`` feature curves already draw :data:`MAX_OUTLINE_ON_CURVES` of it — a crisp edge beats the rounded
-    outline along it (a CAD part's box). The others only hide what lies behind them."""
-    layers = outline_layers(sq, frame, cameras, occluder)
-    precision = outline_precision(sq, frame, cameras, lines, masks, occluder=occluder, layers=layers)
+    outline along it (a CAD part's box). The others only hide what lies behind them.
+
+    ``plain`` (row for row, where some of ``sq`` are tapered or bent: their plain fits) makes the judgement
+    part by part: a deformed one is kept where it draws its outline and that outline lies on the object's lines
+    at least as well as the plain one's, else the plain one takes its place — a deformation is there to draw
+    a part (a spout, a shade), and one that draws nothing is only a stranger occluder (a lamp shade's visual
+    hull bulges under the shade: a tapered fit of that bulge outlines nothing better)."""
+    precision, on_curves = _outline_scores(sq, crisp, frame, cameras, lines, masks, occluder)
+    drawn = _drawn(sq, precision, on_curves)
+    if plain is not None and sq.deformed.any():
+        p_plain, c_plain = _outline_scores(plain, crisp, frame, cameras, lines, masks, occluder)
+        drawn_plain = _drawn(plain, p_plain, c_plain)
+        keep = ~sq.deformed | (drawn & (~drawn_plain | (precision >= p_plain)))
+        for i in np.flatnonzero(sq.deformed):
+            log(f"superquadrics: one {'tapered or bent' if keep[i] else 'left plain'} (its outline "
+                f"{precision[i]:.0%} on the object's lines, {'drawn' if drawn[i] else 'not drawn'}; plain "
+                f"{p_plain[i]:.0%}, {'drawn' if drawn_plain[i] else 'not drawn'})")
+        if not keep.all():
+            sq = _take_rows(sq, plain, keep)
+            precision, on_curves = np.where(keep, precision, p_plain), np.where(keep, on_curves, c_plain)
+            drawn = np.where(keep, drawn, drawn_plain)
     for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
         log(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
             "of its outline lies on the object's lines)")
+    for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
+        log(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
+            f"{on_curves[i]:.0%} of it)")
+    return replace(sq, outline=drawn)
+
+
+def _drawn(sq: SuperquadricSet, precision: np.ndarray, on_curves: np.ndarray) -> np.ndarray:
+    """Whose outline the abstraction draws, from :func:`_outline_scores`: one on the object's lines that the
+    crisp curves do not already draw, or a smooth (both ε at least :data:`SMOOTH_SHAPE`), tapered or bent one
+    whose outline lies on the lines almost everywhere (:data:`DEFORMED_MIN_PRECISION`) — a spout's or a
+    horn's closed outline in one piece beats the two lines along its sides, which leave its end open; a
+    box-like one has edges of its own that the crisp curves draw better (a lamp's base: F 0.922 → 0.909 when
+    its rounded outline replaced them)."""
+    drawn = (precision >= ABSTRACT_MIN_PRECISION) & (on_curves < MAX_OUTLINE_ON_CURVES)
+    smooth = sq.shape.min(axis=1) >= SMOOTH_SHAPE if len(sq) else np.zeros(0, bool)
+    return drawn | (sq.deformed & smooth & (precision >= DEFORMED_MIN_PRECISION))
+
+
+def _outline_scores(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
+                    lines: list[np.ndarray], masks: list[np.ndarray], occluder: Voxels | None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per superquadric, :func:`outline_precision` and :func:`outline_on_curves` (the ``crisp`` curves)."""
+    layers = outline_layers(sq, frame, cameras, occluder)
+    precision = outline_precision(sq, frame, cameras, lines, masks, occluder=occluder, layers=layers)
     on_curves = np.zeros(len(sq))
     if len(crisp):
         # measured on the outlines as drawn without the occluder
         plain = layers if occluder is None else outline_layers(sq, frame, cameras)
         on_curves = outline_on_curves(plain, len(sq), crisp, frame, cameras)
-    for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
-        log(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
-            f"{on_curves[i]:.0%} of it)")
-    return replace(sq, outline=(precision >= ABSTRACT_MIN_PRECISION) & (on_curves < MAX_OUTLINE_ON_CURVES))
+    return precision, on_curves
+
+
+def _take_rows(sq: SuperquadricSet, other: SuperquadricSet, keep: np.ndarray) -> SuperquadricSet:
+    """``sq``'s rows where ``keep``, ``other``'s elsewhere (shape, pose, tapering and bending)."""
+    pick = lambda a, b: np.where(keep.reshape(-1, *([1] * (a.ndim - 1))), a, b)  # noqa: E731
+    out = SuperquadricSet(*(pick(getattr(sq, k), getattr(other, k)) for k in ("scale", "shape", "rotation",
+                                                                              "translation")))
+    tapers, bends = pick(sq.tapers, other.tapers), pick(sq.bends, other.bends)
+    if tapers.any() or bends.any():
+        out.taper, out.bend = tapers, bends
+    return out
 
 
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
