@@ -12,6 +12,7 @@ import numpy as np
 
 from ..arrays import first_occupied, free_space
 from ..cameras import Camera
+from ..strokes.deform import undeform
 from ..strokes.model import SuperquadricSet, Voxels
 from ..strokes.superquadric import bounding_radius, deformation_of, log_inside_outside, quaternion_to_matrix
 
@@ -116,8 +117,6 @@ def _deformed_blocked(origins: np.ndarray, u: np.ndarray, p: np.ndarray, j: np.n
     R = quaternion_to_matrix(sq.rotation)[j]
     world = origins[p][:, None, :] + t[..., None] * u[p][:, None, :]
     local = (world - sq.translation[j][:, None, :]) @ R  # row-vector form of Rᵀ(x − t)
-    from ..strokes.deform import undeform
-
     taper, curvature, direction = (a[j] for a in deformation)
     x = undeform(local, sq.scale[j][:, None], taper[:, None], curvature[:, None], direction[:, None])
     out[p[(log_inside_outside(x, sq.scale[j], sq.shape[j]) < 0).any(axis=1)]] = True
