@@ -54,11 +54,8 @@ MIN_PART_IOU = 0.55
 MERGE_IOU = 0.9
 #: Weight of the other parts' voxels as "outside" for a part's own superquadric (overlap is cheap).
 OTHER_PART_WEIGHT = 0.1
-#: The starts of each part's superquadric: shape ``(ε₁, ε₂)``, frame (the part's principal axes, or the grid's,
-#: which are fitted to the object's box: a square plate's principal axes are any two in its plane) and the
-#: factor from a variance along an axis to the half-size (5 for a ball, 3 for a box).
-#: A part whose plain superquadric explains less than this IoU of it is tried tapered and bent (Barr's
-#: deformations, :mod:`doodle.strokes.deform`), and the deformed one kept when it leaves at most
+#: A part the abstraction keeps whose plain superquadric explains less than this IoU of it is tried tapered
+#: and bent (Barr's deformations, :mod:`doodle.strokes.deform`), and the deformed one kept when it leaves at most
 #: :data:`DEFORM_RESIDUAL` of what the plain one left unexplained (a cone: 0.28 → 0.11; a ball on a coarse
 #: grid gains a few voxels by any extra freedom, 0.40 → 0.37, and stays plain).
 DEFORM_BELOW = 0.8
@@ -68,6 +65,9 @@ DEFORM_RESIDUAL = 2 / 3
 DEFORM_MIN_VOXELS = 200
 #: The shape of the deformed fits' flat-ended starts (a cylinder's).
 FLAT_ENDS = np.array([0.25, 1.0])
+#: The starts of each part's superquadric: shape ``(ε₁, ε₂)``, frame (the part's principal axes, or the grid's,
+#: which are fitted to the object's box: a square plate's principal axes are any two in its plane) and the
+#: factor from a variance along an axis to the half-size (5 for a ball, 3 for a box).
 STARTS = (((1.0, 1.0), "principal", 5.0), ((0.25, 1.0), "principal", 4.0), ((0.25, 0.25), "principal", 3.0),
           ((0.25, 0.25), "grid", 3.0), ((0.25, 1.0), "grid", 4.0))
 

@@ -138,12 +138,12 @@ ABSTRACT_MIN_PRECISION = 0.6
 by cell, so a rough one (the lamp's shade, a cone no superquadric fits: 63 %) draws where it is right."""
 
 MAX_OUTLINE_ON_CURVES = 0.75
+"""Beside the abstraction, a superquadric whose outline the crisp feature curves draw this much of only hides."""
 #: A tapered or bent superquadric whose outline lies this much on the object's lines draws it, whatever the
 #: crisp curves draw (see ``_drawn``).
 DEFORMED_MIN_PRECISION = 0.9
 #: Both shape exponents at least this: a superquadric without edges of its own (0.1 is a box's, 1 a ball's).
 SMOOTH_SHAPE = 0.5
-"""Beside the abstraction, a superquadric whose outline the crisp feature curves draw this much of only hides."""
 
 
 def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
