@@ -43,6 +43,8 @@ class _NumpyOps:
     """The few operations whose numpy and torch spellings differ, numpy side."""
 
     stack = staticmethod(lambda xs, axis: np.stack(xs, axis=axis))
+    cat = staticmethod(lambda xs, axis: np.concatenate(xs, axis=axis))
+    atan2 = staticmethod(np.arctan2)
     clip_min = staticmethod(lambda x, lo: np.maximum(x, lo))
     clip_max = staticmethod(lambda x, hi: np.minimum(x, hi))
     sigmoid = staticmethod(lambda x: 0.5 * (1.0 + np.tanh(0.5 * x)))
@@ -60,6 +62,7 @@ class _TorchOps:
         import torch
 
         self.stack = lambda xs, axis: torch.stack(xs, dim=axis)
+        self.cat = lambda xs, axis: torch.cat(xs, dim=axis)
         self.clip_min = lambda x, lo: x.clamp_min(lo)
         self.clip_max = lambda x, hi: x.clamp(max=hi)
         self.sigmoid = torch.sigmoid

@@ -12,9 +12,9 @@ import numpy as np
 
 from ..arrays import first_occupied, free_space
 from ..cameras import Camera
-from ..strokes.deform import undeform
 from ..strokes.model import SuperquadricSet, Voxels
-from ..strokes.superquadric import bounding_radius, deformation_of, log_inside_outside, quaternion_to_matrix
+from ..strokes.superquadric import (bounding_radius, canonical, deformation_of, log_inside_outside,
+                                    quaternion_to_matrix)
 
 
 def _slab(o: np.ndarray, u: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -114,11 +114,8 @@ def _deformed_blocked(origins: np.ndarray, u: np.ndarray, p: np.ndarray, j: np.n
     if not len(p):
         return out
     t = t0[:, None] + (t1 - t0)[:, None] * ((np.arange(2 * samples) + 0.5) / (2 * samples))  # (K, S)
-    R = quaternion_to_matrix(sq.rotation)[j]
-    world = origins[p][:, None, :] + t[..., None] * u[p][:, None, :]
-    local = (world - sq.translation[j][:, None, :]) @ R  # row-vector form of Rᵀ(x − t)
-    taper, curvature, direction = (a[j] for a in deformation)
-    x = undeform(local, sq.scale[j][:, None], taper[:, None], curvature[:, None], direction[:, None])
+    world = origins[p][:, None, :] + t[..., None] * u[p][:, None, :]  # pair k's samples: "superquadric" k's
+    x = canonical(world, sq.scale[j], sq.rotation[j], sq.translation[j], tuple(a[j] for a in deformation))
     out[p[(log_inside_outside(x, sq.scale[j], sq.shape[j]) < 0).any(axis=1)]] = True
     return out
 

@@ -60,7 +60,7 @@ def untaper(x: Any, scale: Any, factors: Any) -> Any:
 
 def _cat(xy: Any, z: Any) -> Any:
     """``(..., 2)`` and ``(..., 1)`` → ``(..., 3)``."""
-    return np.concatenate([xy, z], -1) if isinstance(xy, np.ndarray) else ops(xy).cat([xy, z], -1)
+    return ops(xy).cat([xy, z], -1)
 
 
 def bend(x: Any, curvature: Any, direction: Any) -> Any:
@@ -93,13 +93,9 @@ def unbend(x: Any, curvature: Any, direction: Any) -> Any:
     a, b = k * z, 1.0 - k * U
     small = xp.abs(a) < 1e-4
     safe = xp.where(small, 1e-4 + 0.0 * a, a)
-    q = xp.where(small, (1.0 - a * a / (3.0 * b * b)) / b, _atan2(safe, b) / safe)
+    q = xp.where(small, (1.0 - a * a / (3.0 * b * b)) / b, xp.atan2(safe, b) / safe)
     r = (2.0 * U - k * (U * U + z * z)) / (1.0 + xp.sqrt(a * a + b * b))
     return _cat(x[..., :2] - (U - r) * direction, z * q)
-
-
-def _atan2(a: Any, b: Any) -> Any:
-    return np.arctan2(a, b) if isinstance(a, np.ndarray) else ops(a).atan2(a, b)
 
 
 def bend_axis(bend_vectors: Any, scale: Any) -> tuple[Any, Any]:
@@ -141,5 +137,4 @@ def bound_factor(taper_factors: np.ndarray, bend_vectors: np.ndarray) -> np.ndar
     """``(M,)`` factors by which a deformed superquadric's bounding radius ``|a|`` grows, at most: tapering
     scales a cross-section by ``1 + |t|``; bending keeps lengths along the axis and moves the rest by at most
     ``κ r z``-order terms, bounded by ``1 + |b|``."""
-    t = np.abs(np.asarray(taper_factors)).max(axis=-1) if np.size(taper_factors) else np.zeros(0)
-    return (1.0 + t) * (1.0 + np.linalg.norm(bend_vectors, axis=-1))
+    return (1.0 + np.abs(taper_factors).max(axis=-1)) * (1.0 + np.linalg.norm(bend_vectors, axis=-1))

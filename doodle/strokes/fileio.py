@@ -190,19 +190,15 @@ def _parse(data: Any) -> StrokeSet:
             if sq.outline_cells is None:
                 sq.outline_cells = np.ones((m, *OUTLINE_CELLS), bool)
             sq.outline_cells[i] = _outline_cells(item["outline_cells"], f"{name}.outline_cells")
-        if "taper" in item:
-            if sq.taper is None:
-                sq.taper = np.zeros((m, 2))
-            sq.taper[i] = [_number(v, f"{name}.taper[{k}]", -TAPER_LIMIT, TAPER_LIMIT) for k, v in
-                           enumerate(_checked_list(item["taper"], 2, f"{name}.taper"))]
-        if "bend" in item:
-            if sq.bend is None:
-                sq.bend = np.zeros((m, 2))
-            sq.bend[i] = [_number(v, f"{name}.bend[{k}]", -BEND_LIMIT, BEND_LIMIT) for k, v in
-                          enumerate(_checked_list(item["bend"], 2, f"{name}.bend"))]
-            if float(np.linalg.norm(sq.bend[i])) > BEND_LIMIT + 1e-9:
-                raise _Invalid(f"{name}.bend: bends by {np.linalg.norm(sq.bend[i]):.4g} rad, more than "
-                               f"{BEND_LIMIT:.4g} (a quarter turn over the half-length)")
+        for key, limit in (("taper", TAPER_LIMIT), ("bend", BEND_LIMIT)):
+            if key in item:
+                if getattr(sq, key) is None:
+                    setattr(sq, key, np.zeros((m, 2)))
+                getattr(sq, key)[i] = [_number(v, f"{name}.{key}[{k}]", -limit, limit) for k, v in
+                                       enumerate(_checked_list(item[key], 2, f"{name}.{key}"))]
+        if "bend" in item and float(np.linalg.norm(sq.bend[i])) > BEND_LIMIT + 1e-9:
+            raise _Invalid(f"{name}.bend: bends by {np.linalg.norm(sq.bend[i]):.4g} rad, more than "
+                           f"{BEND_LIMIT:.4g} (a quarter turn over the half-length)")
 
     provenance = top.get("provenance", {})
     if not isinstance(provenance, dict):

@@ -5,7 +5,7 @@ Arrays are numpy float64; the fitting core turns them into torch tensors (see ``
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -143,6 +143,29 @@ class SuperquadricSet:
                                None if self.outline_cells is None else np.asarray(self.outline_cells, bool)[keep],
                                None if self.taper is None else np.asarray(self.taper)[keep],
                                None if self.bend is None else np.asarray(self.bend)[keep])
+
+    def with_deformation(self, taper: np.ndarray, bend: np.ndarray) -> "SuperquadricSet":
+        """This set with ``taper`` and ``bend`` ``(M, 2)``, stored only when some are nonzero (a plain set stays
+        one: its files and drawing are the plain path's)."""
+        deformed = bool(np.any(taper) or np.any(bend))
+        return replace(self, taper=taper if deformed else None, bend=bend if deformed else None)
+
+    def where(self, keep: np.ndarray, other: "SuperquadricSet") -> "SuperquadricSet":
+        """Row by row, this set's superquadric where ``keep`` ``(M,)``, ``other``'s (as many) elsewhere: shape,
+        pose, tapering and bending (not the outline flags and cells, which a judge sets afterwards)."""
+        keep = np.asarray(keep, bool)
+        pick = lambda a, b: np.where(keep.reshape(-1, *([1] * (a.ndim - 1))), a, b)  # noqa: E731
+        return SuperquadricSet(*(pick(getattr(self, k), getattr(other, k)) for k in _PARAMETERS)).with_deformation(
+            pick(self.tapers, other.tapers), pick(self.bends, other.bends))
+
+    @staticmethod
+    def concatenate(sets: "list[SuperquadricSet]") -> "SuperquadricSet":
+        """One set of the superquadrics of ``sets`` (at least one), in order: shape, pose, tapering and bending."""
+        joined = SuperquadricSet(*(np.concatenate([getattr(s, k) for s in sets]) for k in _PARAMETERS))
+        return joined.with_deformation(*(np.concatenate([getattr(s, k) for s in sets]) for k in ("tapers", "bends")))
+
+
+_PARAMETERS = ("scale", "shape", "rotation", "translation")
 
 
 @dataclass

@@ -26,12 +26,10 @@ SHAPE_LO, SHAPE_HI = 0.1, 1.9
 FOLD = 0.9
 
 
-def _bend_limit(scale, taper):
-    """Largest bend angle ``(M,)`` of superquadrics with ``scale (M, 3)`` and ``taper (M, 2)`` (numpy or torch)."""
-    lib = torch if isinstance(scale, torch.Tensor) else np
-    across = scale[:, :2].max(1) if lib is np else scale[:, :2].max(1).values
-    widest = across * (1 + (abs(taper).max(1) if lib is np else taper.abs().max(1).values))
-    return lib.clip(FOLD * scale[:, 2] / widest, None, BEND_MAX) if lib is np else (FOLD * scale[:, 2] / widest).clamp(max=BEND_MAX)
+def _bend_limit(scale: torch.Tensor, taper: torch.Tensor) -> torch.Tensor:
+    """Largest bend angle ``(M,)`` of superquadrics with ``scale (M, 3)`` and ``taper (M, 2)``."""
+    widest = scale[:, :2].max(1).values * (1 + taper.abs().max(1).values)
+    return (FOLD * scale[:, 2] / widest).clamp(max=BEND_MAX)
 
 
 class SuperquadricParams(torch.nn.Module):
@@ -48,7 +46,8 @@ class SuperquadricParams(torch.nn.Module):
         taper = np.zeros((m, 2)) if taper is None else np.asarray(taper, np.float64)
         bend = np.zeros((m, 2)) if bend is None else np.asarray(bend, np.float64)
         beta = np.linalg.norm(bend, axis=1)
-        ratio = np.clip(beta / _bend_limit(np.asarray(scale, np.float64), taper), 0.0, 0.999)
+        limit = _bend_limit(torch.as_tensor(np.asarray(scale, np.float64)), torch.as_tensor(taper)).numpy()
+        ratio = np.clip(beta / limit, 0.0, 0.999)
         raw = {"raw_taper": np.arctanh(np.clip(taper / TAPER_MAX, -0.999, 0.999)), "raw_bend": np.arctanh(ratio),
                "bend_direction": np.arctan2(bend[:, 1], bend[:, 0])}
         for name, value in raw.items():
@@ -87,10 +86,7 @@ class SuperquadricParams(torch.nn.Module):
         sq = SuperquadricSet(scale, np.clip(shape, SHAPE_LO, SHAPE_HI), q * np.sign(q[:, :1] + 1e-12), t)
         taper, beta, direction = (v.detach().double().cpu().numpy() for v in self.taper_bend())
         bend = beta[:, None] * direction
-        taper, bend = np.where(np.abs(taper) < 1e-6, 0.0, taper), np.where(np.abs(bend) < 1e-6, 0.0, bend)
-        if taper.any() or bend.any():
-            sq.taper, sq.bend = taper, bend
-        return sq
+        return sq.with_deformation(np.where(np.abs(taper) < 1e-6, 0.0, taper), np.where(np.abs(bend) < 1e-6, 0.0, bend))
 
     @classmethod
     def from_set(cls, sq: SuperquadricSet, deformable: bool = False) -> "SuperquadricParams":

@@ -290,10 +290,7 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
         union, best = trial, best + gain
     if not found:
         return Abstraction(SuperquadricSet(), 0.0, parts, thick_share)
-    sq = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in found]) for a in ("scale", "shape", "rotation",
-                                                                                    "translation")))
-    if any(f.deformed.any() for f in found):
-        sq.taper, sq.bend = np.concatenate([f.tapers for f in found]), np.concatenate([f.bends for f in found])
+    sq = SuperquadricSet.concatenate(found)
     # The parts are found on the working grid; the union is refined on the full one, near its surface, where
     # a voxel of the working grid is more than the 2 px a line may stray (the cow's held-out line precision
     # 0.878 refined on the working grid, 0.941 fitted on the full one, 2.5 times slower).
@@ -304,14 +301,10 @@ def abstract_volume(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied
     if sq.deformed.any():
         # the plain abstraction, refined as without deformations; then the deformed ones put in their plain
         # fits' places and refined among the others, which stay as they are
-        plain = SuperquadricSet(*(np.concatenate([getattr(f, a) for f in plains]) for a in ("scale", "shape",
-                                                                                        "rotation", "translation")))
-        plain = _refine_union(plain, points, inside, 0.5 * voxel, steps, copy.deepcopy(rng))
+        plain = _refine_union(SuperquadricSet.concatenate(plains), points, inside, 0.5 * voxel, steps,
+                              copy.deepcopy(rng))
         bent = sq.deformed
-        start = SuperquadricSet(*(np.where(bent.reshape(-1, *([1] * (getattr(sq, a).ndim - 1))), getattr(sq, a),
-                                           getattr(plain, a)) for a in ("scale", "shape", "rotation", "translation")),
-                                taper=sq.tapers, bend=sq.bends)
-        sq = _refine_union(start, points, inside, 0.5 * voxel, steps // 2, rng, only=bent)
+        sq = _refine_union(sq.where(bent, plain), points, inside, 0.5 * voxel, steps // 2, rng, only=bent)
     else:
         sq = _refine_union(sq, points, inside, 0.5 * voxel, steps, rng)
     iou = _iou((_distance(centres, sq) <= 0).any(axis=0), in_thick)
@@ -391,9 +384,8 @@ def _deformed_starts(sq: SuperquadricSet) -> SuperquadricSet:
         q = matrix_to_quaternion(R[:, order])
         for shape, bend in ((FLAT_ENDS, (1e-3, 0.0)), (FLAT_ENDS, (0.0, 1e-3)), (sq.shape[0], (1e-3, 0.0))):
             rows.append((sq.scale[0][order], shape, q, sq.translation[0], bend))
-    out = SuperquadricSet(*(np.array([r[k] for r in rows]) for k in range(4)))
-    out.taper, out.bend = np.zeros((len(rows), 2)), np.array([r[4] for r in rows])
-    return out
+    return SuperquadricSet(*(np.array([r[k] for r in rows]) for k in range(4))).with_deformation(
+        np.zeros((len(rows), 2)), np.array([r[4] for r in rows]))
 
 
 def _surface_samples(occupied: np.ndarray, thick: np.ndarray, k: int, origin: np.ndarray, voxel: float,

@@ -171,7 +171,7 @@ def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame
                 f"{precision[i]:.0%} on the object's lines, {'drawn' if drawn[i] else 'not drawn'}; plain "
                 f"{p_plain[i]:.0%}, {'drawn' if drawn_plain[i] else 'not drawn'})")
         if not keep.all():
-            sq = _take_rows(sq, plain, keep)
+            sq = sq.where(keep, plain)
             precision, on_curves = np.where(keep, precision, p_plain), np.where(keep, on_curves, c_plain)
             drawn = np.where(keep, drawn, drawn_plain)
     for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
@@ -207,17 +207,6 @@ def _outline_scores(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cam
         plain = layers if occluder is None else outline_layers(sq, frame, cameras)
         on_curves = outline_on_curves(plain, len(sq), crisp, frame, cameras)
     return precision, on_curves
-
-
-def _take_rows(sq: SuperquadricSet, other: SuperquadricSet, keep: np.ndarray) -> SuperquadricSet:
-    """``sq``'s rows where ``keep``, ``other``'s elsewhere (shape, pose, tapering and bending)."""
-    pick = lambda a, b: np.where(keep.reshape(-1, *([1] * (a.ndim - 1))), a, b)  # noqa: E731
-    out = SuperquadricSet(*(pick(getattr(sq, k), getattr(other, k)) for k in ("scale", "shape", "rotation",
-                                                                              "translation")))
-    tapers, bends = pick(sq.tapers, other.tapers), pick(sq.bends, other.bends)
-    if tapers.any() or bends.any():
-        out.taper, out.bend = tapers, bends
-    return out
 
 
 def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
