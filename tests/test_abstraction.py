@@ -1,0 +1,62 @@
+"""The superquadric abstraction of a volume (``doodle.fit.volume.abstraction``): parts and their count."""
+
+import numpy as np
+
+import doodle.fit.volume.abstraction as abstraction
+from doodle.fit.volume.abstraction import _distance, abstract_volume
+
+
+def _two_balls(n: int = 48):
+    """A grid over [-1, 1]³ and two balls apart on it (one big, one small)."""
+    vox = 2.0 / n
+    g = (np.arange(n) - n / 2 + 0.5) * vox
+    X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
+    big = (X + 0.35) ** 2 + Y ** 2 + Z ** 2 <= 0.45 ** 2
+    small = (X - 0.6) ** 2 + Y ** 2 + Z ** 2 <= 0.25 ** 2
+    return np.array([g[0]] * 3), vox, big, small
+
+
+def _covered(sq, origin, vox, part) -> float:
+    """Share of a part's voxels inside the superquadrics."""
+    return float((_distance(origin + np.argwhere(part) * vox, sq) <= 0).any(axis=0).mean())
+
+
+def test_two_balls_are_two_superquadrics_refined_once(monkeypatch):
+    """Where the refined union explains the volume, no second round is fitted (nor a second refinement)."""
+    origin, vox, big, small = _two_balls()
+    refine = abstraction._refine_union
+    calls = []
+    monkeypatch.setattr(abstraction, "_refine_union", lambda *a, **k: calls.append(1) or refine(*a, **k))
+    found = abstract_volume(origin, vox, np.eye(3), big | small, steps=60)
+    assert len(found.superquadrics) == 2 and found.iou > 0.85 and len(calls) == 1
+    assert _covered(found.superquadrics, origin, vox, big) > 0.9
+    assert _covered(found.superquadrics, origin, vox, small) > 0.9
+
+
+def test_what_the_refined_union_gives_up_is_taken_again(monkeypatch):
+    """Refined together, a superquadric may give up its part (a character's feet, fitted with its torso, are
+    left when the torso pulls the body's superquadric up): what the refined union leaves is split and fitted
+    again. Here the first refinement throws the small ball's superquadric away."""
+    origin, vox, big, small = _two_balls()
+    refine = abstraction._refine_union
+    calls, first = [], []
+
+    def gives_up(sq, *args, **kwargs):
+        out = refine(sq, *args, **kwargs)
+        calls.append(kwargs.get("only"))
+        if len(calls) == 1:  # the first refinement: the smaller one leaves for far away
+            far = np.argmin(out.scale.prod(axis=1))
+            out.translation[far] = [0.0, 0.0, -50.0]
+            first.append(out)
+        return out
+
+    monkeypatch.setattr(abstraction, "_refine_union", gives_up)
+    messages = []
+    found = abstract_volume(origin, vox, np.eye(3), big | small, steps=60, log=messages.append)
+    assert len(calls) == 2 and calls[1] is not None and calls[1].tolist() == [False, False, True]
+    assert any("more for what the refined union left" in m for m in messages), messages
+    sq = found.superquadrics
+    assert len(sq) == 3 and _covered(sq, origin, vox, small) > 0.9 and _covered(sq, origin, vox, big) > 0.9
+    # the others stay as the first refinement left them: the new one is refined among them
+    for name in ("scale", "shape", "rotation", "translation"):
+        assert np.allclose(getattr(sq, name)[:2], getattr(first[0], name), atol=1e-5), name
