@@ -368,3 +368,82 @@ def test_some_views_with_alpha_and_some_without_is_an_error(tmp_path):
     Image.open(p).convert("RGB").save(p)
     with pytest.raises(SceneError, match="r_2.png has no alpha"):
         load_scene(d)
+
+
+def test_a_part_that_stands_out_of_the_hull_is_thin_and_a_fringe_round_it_is_not():
+    """:func:`doodle.scenes.automask.thin.protrusions`: a rod out of a ball is kept whole, down to the ball;
+    a shell two voxels thick round the ball (a floor fringe the generous masks agree on) is not, nor a sheet
+    on the support beside it."""
+    from doodle.scenes.automask.hull import VoxelHull
+    from doodle.scenes.automask.thin import protrusions
+
+    n = 80
+    g = np.arange(n) - n / 2 + 0.5
+    X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
+    r = np.sqrt(X ** 2 + Y ** 2 + Z ** 2)
+    ball = r <= 20
+    rod = (np.hypot(Y, Z) <= 1.5) & (X > 0) & (X <= 34)
+    fine = VoxelHull(ball | (r <= 22) | rod, np.full(3, g[0]), 1.0)
+    body = VoxelHull(ball, fine.origin, 1.0)  # the final masks' hull lacks the rod
+    thin = protrusions(fine, body)
+    out = rod & ~ball & (r > 22)
+    assert thin.occupied[out].mean() > 0.95  # the rod beyond the fringe
+    assert thin.occupied[rod & (r > 20.5)].mean() > 0.9  # and down to the ball
+    shell = (r > 20.5) & (r <= 22) & ~ndimage.binary_dilation(rod, iterations=4)
+    assert not thin.occupied[shell].any()
+    assert not thin.occupied[ball & (r < 19)].any()
+    # without a rod nothing stands out
+    assert not protrusions(VoxelHull(r <= 22, fine.origin, 1.0), body).occupied.any()
+    # a strip on the floor (z = -20) reaching out of the ball's foot as far as the rod does is the floor's
+    sheet = (np.abs(Z + 19.5) <= 0.5) & (np.abs(Y) <= 3) & (X >= -30) & (X <= 0)
+    floor = protrusions(VoxelHull(ball | sheet, fine.origin, 1.0), body, lambda p: p[:, 2] + 20.5)
+    assert not floor.occupied.any()
+    assert protrusions(VoxelHull(ball | sheet, fine.origin, 1.0), body).occupied.any()
+
+
+def _solid_masks(cams, inside, box, count=200_000):
+    """Each camera's mask of the solid ``inside(points) -> bool`` in ``box`` (lo, hi): random points, splatted."""
+    pts = np.random.default_rng(1).uniform(*box, (count, 3))
+    pts = pts[inside(pts)]
+    out = []
+    for c in cams:
+        uv, ok = in_view_of(c, pts)
+        m = np.zeros((c.height, c.width), bool)
+        m[uv[ok, 1].astype(int), uv[ok, 0].astype(int)] = True
+        out.append(ndimage.binary_closing(m, iterations=2) | m)
+    return out
+
+
+def test_a_thin_part_the_cuts_lost_comes_back_from_the_first_masks_and_a_floor_patch_does_not():
+    """:func:`restore_thin_parts`: a ball on the floor with a thin rod (an ear, a tail) out of its side; the
+    final masks lack the rod, the generous first masks hold it and a patch of floor beside the ball. The rod
+    comes back in every view that sees it; the floor patch (on the support) does not."""
+    from doodle.cameras import Camera, look_at
+    from doodle.scenes.automask.hull import carve
+    from doodle.scenes.automask.region import ObjectRegion
+    from doodle.scenes.automask.thin import restore_thin_parts
+
+    cams = []
+    for k, a in enumerate(np.linspace(0, 2 * np.pi, 16, endpoint=False)):
+        R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), 1.0 + 0.5 * (k % 2)]), np.zeros(3),
+                       np.array([0, 0, 1.0]))
+        cams.append(Camera(200, 200, 100, 100, 200, 200, R, t))
+    ball = lambda p: np.linalg.norm(p, axis=1) <= 0.5  # noqa: E731
+    rod = lambda p: (np.hypot(p[:, 1], p[:, 2] - 0.1) <= 0.03) & (p[:, 0] > 0) & (p[:, 0] <= 0.85)  # noqa: E731
+    patch = lambda p: (np.abs(p[:, 2] + 0.5) <= 0.01) & (p[:, 0] < -0.4) & (p[:, 0] > -0.9) & (np.abs(p[:, 1]) < 0.3)  # noqa: E731
+    final = _solid_masks(cams, ball, ([-0.5] * 3, [0.5] * 3))
+    rods = _solid_masks(cams, rod, ([0, -0.03, 0.07], [0.85, 0.03, 0.13]), 20_000)
+    patches = _solid_masks(cams, patch, ([-0.9, -0.3, -0.51], [-0.4, 0.3, -0.49]), 20_000)
+    truth = [f | r for f, r in zip(final, rods)]
+    first = [t | p for t, p in zip(truth, patches)]
+    rng = np.random.default_rng(0)
+    region = ObjectRegion(np.zeros(3), rng.normal(0, 0.2, (200, 3)), np.zeros((0, 3)), (np.array([0, 0, 1.0]), -0.5),
+                          1.0)
+    body = carve(cams, final, region)
+    masks, count = restore_thin_parts(cams, first, final, region, body)
+    assert count > 0
+    rod_px = [t & ~f for t, f in zip(truth, final)]
+    assert sum((m & r).sum() for m, r in zip(masks, rod_px)) > 0.6 * sum(r.sum() for r in rod_px)
+    patch_px = [f & ~t for f, t in zip(first, truth)]
+    assert sum(p.sum() for p in patch_px) > 1000 and not any((m & p).any() for m, p in zip(masks, patch_px))
+    assert all((m | f == m).all() for m, f in zip(masks, final))  # only ever adds

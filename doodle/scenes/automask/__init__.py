@@ -12,7 +12,8 @@ per-view colour models, and the views are made to agree on one object.
    projected background points (background) and the object points' outline (probably object).
 3. **One object** (:mod:`.hull`): the first cuts vote on a voxel hull above the support; every view is cut again
    seeded by the hull's projection, so a view that disagrees with the others is segmented again with what
-   they see, and what only one view took (a patch of floor) goes.
+   they see, and what only one view took (a patch of floor) goes. Thin parts the cuts lose (ears, a tail)
+   are put back where the first masks agree on them (:mod:`.thin`).
 4. **Plausibility**: masks that cover most of every photo, or that still disagree between views, stop here with
    one line saying to give masks (``--masks DIR``), instead of drawing the floor.
 
@@ -38,6 +39,7 @@ from .cut import colour_bins, histogram, hull_cut, likely_object
 from .floor import blurred, floor_error, floor_pixels
 from .hull import FIRST_AGREE, agreement, carve, reach_mask, shadow
 from .region import PLANE_TOL, ObjectRegion, in_view, object_region
+from .thin import restore_thin_parts
 
 CUT_SIZE = 384
 """px, the long side at which the views are cut (GrabCut's cost grows with the pixel count)."""
@@ -159,6 +161,7 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
         edge = region.plane is None and len(region.background_points) < 20
         masks = list(pool.map(lambda k: likely_object(images[k], colours, seeds[k][0], reach[k], seeds[k][1],
                                                       floors[k][1], edge), range(len(cams))))
+        first = masks
         for _ in range(rounds):
             hull = carve(cams, masks, region, agree=FIRST_AGREE)
             if not hull.occupied.any():
@@ -172,13 +175,14 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
                                   range(len(cams))))
     final = carve(cams, masks, region)
     agree = agreement(masks, [shadow(c, final, m.shape) for c, m in zip(cams, masks)])
+    masks, thin = restore_thin_parts(cams, first, masks, region, final)
     out = [_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m
            for m, full in zip(masks, scene.images)]
     cover = np.mean([m.mean() for m in out])
     log(f"automatic masks: {len(region.object_points)} object points, "
         f"{'a support plane and ' if region.plane is not None else ''}{len(region.background_points)} background "
         f"points; object covers {100 * cover:.0f}% of the image on average, views agree (IoU with the hull) "
-        f"{np.median(agree):.2f} in the median")
+        f"{np.median(agree):.2f} in the median" + (f"; thin parts the cuts lost put back ({thin} voxels)" if thin else ""))
     check_masks(out, agree, scene.source)
     return out
 

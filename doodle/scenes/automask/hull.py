@@ -75,9 +75,10 @@ def reach_mask(cam: Camera, region: ObjectRegion, shape: tuple[int, int]) -> np.
 
 
 def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, n: int = HULL_VOXELS,
-          agree: float = AGREE) -> VoxelHull:
-    """The voxels at least ``agree`` of the views seeing them call object, above the support."""
-    lo, hi = _box(region)
+          agree: float = AGREE, box: tuple[np.ndarray, np.ndarray] | None = None) -> VoxelHull:
+    """The voxels at least ``agree`` of the views seeing them call object, above the support, in ``box``
+    (``(lo, hi)``, world; default: the box the object can reach, :func:`_box`)."""
+    lo, hi = _box(region) if box is None else box
     voxel = float((hi - lo).max()) / n
     axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)

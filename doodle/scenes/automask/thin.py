@@ -1,0 +1,95 @@
+"""Thin parts the cuts lose: ears, a tail, an antenna.
+
+A graph cut pays for every pixel of boundary, so a part a few pixels across costs more boundary than its
+colour gains and is cut off (GrabCut's shrinking bias); the hull the cut views then carve has no such part,
+and the next cuts, seeded by that hull, lose it for good. The generous first masks (:func:`.cut.likely_object`,
+by colour alone) still hold it, along with a fringe of the floor round the object that changes from view to
+view. What the views agree on in those masks, on a grid fine enough for a part a few pixels across, and what
+stands out of the final hull farther than a fringe does, is a thin part: each view gets back the pixels of
+its first mask that part covers.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from scipy import ndimage
+
+from ...cameras import Camera
+from .hull import FIRST_AGREE, VoxelHull, carve, shadow
+from .region import ObjectRegion
+
+THIN_VOXELS = 160
+"""Voxels along the longest side of the grid thin parts are looked for on (the hull's box grown by
+:data:`MARGIN`): an ear or a tail a few pixels across in the photos is a voxel or two."""
+MARGIN = 0.25
+"""The grid's box: the final hull's grown by this share of its largest side on every side."""
+FRINGE = 2
+"""Voxels of that grid a fringe of the floor (or a mask a pixel too wide) stands out of the hull at most."""
+MIN_OUT = 6
+"""Voxels of that grid a thin part reaches out of the hull at least (about 5 % of the object's size: the
+painted calf's ears and tail reach 8–15; the fringes along its legs and belly that the views agree on, 3–5)."""
+MAX_PART = 0.05
+"""A thin part holds at most this share of the hull's volume (an ear, a tail: well under 1 %)."""
+
+
+def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray], np.ndarray] | None = None,
+                fringe: int = FRINGE, min_out: int = MIN_OUT) -> VoxelHull:
+    """The voxels of ``fine`` that stand out of ``body`` (on the same grid) as a thin part does: the pieces of
+    it farther than ``fringe`` voxels from ``body`` that reach at least ``min_out`` voxels out, hold at most
+    :data:`MAX_PART` of ``body``'s volume and do not come down to the support (within ``fringe + 1`` voxels of
+    it by ``height``, world points → height above the support: a patch of floor the generous masks agree on
+    beside the object's foot, rising a few voxels up its side, is no thin part; a thin part standing on the
+    floor cannot be told from one), with what joins them to ``body`` (``fine``'s voxels within ``fringe + 1``
+    of them). A piece must start where a fringe ends (come within ``fringe + 1.5``
+    voxels of ``body``): what floats apart is no part of the object."""
+    inside = body.occupied
+    out = fine.occupied & ~inside
+    if not out.any() or not inside.any():
+        return VoxelHull(np.zeros_like(fine.occupied), fine.origin, fine.voxel)
+    reach = ndimage.distance_transform_edt(~inside)
+    labels, n = ndimage.label(out & (reach > fringe), np.ones((3, 3, 3), bool))
+    if n == 0:
+        return VoxelHull(np.zeros_like(fine.occupied), fine.origin, fine.voxel)
+    index = np.arange(1, n + 1)
+    far = np.asarray(ndimage.maximum(reach, labels, index))
+    size = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+    near = np.asarray(ndimage.minimum(reach, labels, index))  # attached: it starts where the fringe ends
+    ok = (far >= min_out) & (near <= fringe + 1.5) & (size <= MAX_PART * inside.sum())
+    if height is not None and ok.any():
+        h = height(fine.origin + np.argwhere(labels > 0) * fine.voxel)
+        ok &= np.asarray(ndimage.minimum(h, labels[labels > 0], index)) > (fringe + 1) * fine.voxel
+    parts = np.isin(labels, index[ok])
+    return VoxelHull(ndimage.binary_dilation(parts, iterations=fringe + 1) & out, fine.origin, fine.voxel)
+
+
+def restore_thin_parts(cameras: list[Camera], first: list[np.ndarray], final: list[np.ndarray],
+                       region: ObjectRegion, body: VoxelHull) -> tuple[list[np.ndarray], int]:
+    """``final`` masks with the thin parts they lost (see the module doc) put back from the ``first`` masks;
+    ``body``: the hull ``final`` carve (its box is where thin parts are looked for). Returns the masks and the
+    thin parts' voxel count."""
+    if not body.occupied.any():
+        return final, 0
+    ijk = np.argwhere(body.occupied)
+    lo = body.origin + (ijk.min(axis=0) - 0.5) * body.voxel
+    hi = body.origin + (ijk.max(axis=0) + 0.5) * body.voxel
+    grow = MARGIN * float((hi - lo).max())
+    box = (lo - grow, hi + grow)
+    both = [f | m for f, m in zip(first, final)]
+    fine = carve(cameras, both, region, n=THIN_VOXELS, agree=FIRST_AGREE, box=box)
+    # the body on the same grid: a box's edges and corners, which a coarser hull rounds, stand out of nothing
+    thin = protrusions(fine, carve(cameras, final, region, n=THIN_VOXELS, box=box), region.height)
+    count = int(thin.occupied.sum())
+    if count == 0:
+        return final, 0
+    return [_attached(m, f & shadow(c, thin, m.shape)) for c, f, m in zip(cameras, first, final)], count
+
+
+def _attached(mask: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """``mask`` with the pieces of ``extra`` that touch it."""
+    labels, n = ndimage.label(extra & ~mask)
+    if n == 0:
+        return mask
+    touching = np.unique(labels[ndimage.binary_dilation(mask) & (labels > 0)])
+    return mask | np.isin(labels, touching)
