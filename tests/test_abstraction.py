@@ -2,7 +2,7 @@
 
 import numpy as np
 
-import doodle.fit.volume.abstraction as abstraction
+from doodle.fit.volume import abstraction
 from doodle.fit.volume.abstraction import _distance, abstract_volume
 
 

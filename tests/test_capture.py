@@ -428,9 +428,9 @@ def test_a_thin_part_the_cuts_lost_comes_back_from_the_first_masks_and_a_floor_p
         R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), 1.0 + 0.5 * (k % 2)]), np.zeros(3),
                        np.array([0, 0, 1.0]))
         cams.append(Camera(200, 200, 100, 100, 200, 200, R, t))
-    ball = lambda p: np.linalg.norm(p, axis=1) <= 0.5  # noqa: E731
-    rod = lambda p: (np.hypot(p[:, 1], p[:, 2] - 0.1) <= 0.03) & (p[:, 0] > 0) & (p[:, 0] <= 0.85)  # noqa: E731
-    patch = lambda p: (np.abs(p[:, 2] + 0.5) <= 0.01) & (p[:, 0] < -0.4) & (p[:, 0] > -0.9) & (np.abs(p[:, 1]) < 0.3)  # noqa: E731
+    ball = lambda p: np.linalg.norm(p, axis=1) <= 0.5
+    rod = lambda p: (np.hypot(p[:, 1], p[:, 2] - 0.1) <= 0.03) & (p[:, 0] > 0) & (p[:, 0] <= 0.85)
+    patch = lambda p: (np.abs(p[:, 2] + 0.5) <= 0.01) & (p[:, 0] < -0.4) & (p[:, 0] > -0.9) & (np.abs(p[:, 1]) < 0.3)
     final = _solid_masks(cams, ball, ([-0.5] * 3, [0.5] * 3))
     rods = _solid_masks(cams, rod, ([0, -0.03, 0.07], [0.85, 0.03, 0.13]), 20_000)
     patches = _solid_masks(cams, patch, ([-0.9, -0.3, -0.51], [-0.4, 0.3, -0.49]), 20_000)

@@ -342,8 +342,8 @@ class _PartTaker:
             part = int(np.argmax(sizes)) + 1
             self.parts += 1
             mine = labels == part
-            fit = lambda m: _fit_part(m, thick, covered, self.care, self.origin, cvox, self.axes, self.tau,  # noqa: E731
-                                      self.radius, self.steps, self.rng)
+            fit = lambda m, covered=covered: _fit_part(m, thick, covered, self.care, self.origin, cvox, self.axes,
+                                                       self.tau, self.radius, self.steps, self.rng)
             plain, own_iou, deformed = fit(mine)
             # The split may cut one body in two (a mug's, at a bulge of its hull): one superquadric over the part
             # and its largest neighbour wins when it explains both about as well as the part's own does one.
