@@ -175,16 +175,16 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
                                   range(len(cams))))
     final = carve(cams, masks, region)
     agree = agreement(masks, [shadow(c, final, m.shape) for c, m in zip(cams, masks)])
-    masks, thin = restore_thin_parts(cams, first, masks, region, final)
-    out = [_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m
-           for m, full in zip(masks, scene.images)]
-    cover = np.mean([m.mean() for m in out])
     log(f"automatic masks: {len(region.object_points)} object points, "
         f"{'a support plane and ' if region.plane is not None else ''}{len(region.background_points)} background "
-        f"points; object covers {100 * cover:.0f}% of the image on average, views agree (IoU with the hull) "
-        f"{np.median(agree):.2f} in the median" + (f"; thin parts the cuts lost put back ({thin} voxels)" if thin else ""))
-    check_masks(out, agree, scene.source)
-    return out
+        f"points; object covers {100 * np.mean([m.mean() for m in masks]):.0f}% of the image on average, views "
+        f"agree (IoU with the hull) {np.median(agree):.2f} in the median")
+    check_masks(masks, agree, scene.source)  # before more is spent on masks that found no object
+    masks, thin = restore_thin_parts(cams, first, masks, region, final)
+    if thin:
+        log(f"automatic masks: thin parts the cuts lost put back ({thin} voxels)")
+    return [_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m
+            for m, full in zip(masks, scene.images)]
 
 
 def write_masks(scene: Scene, masks: list[np.ndarray], folder: Path) -> Path:

@@ -74,6 +74,22 @@ def reach_mask(cam: Camera, region: ObjectRegion, shape: tuple[int, int]) -> np.
     return out.astype(bool)
 
 
+def called_object(cameras: list[Camera], masks: list[np.ndarray], points: np.ndarray, agree: float) -> np.ndarray:
+    """``(P,)`` bool: whether at least ``agree`` of the views that see each world point (and at least 3) call
+    it object in their ``masks``."""
+    seen = np.zeros(len(points), np.int32)
+    inside = np.zeros(len(points), np.int32)
+    pts = points.astype(np.float32)
+    for cam, m in zip(cameras, masks):
+        uv, ok = in_view(cam, pts)
+        H, W = m.shape
+        u = np.clip((uv[ok, 0] * W / cam.width).astype(int), 0, W - 1)
+        v = np.clip((uv[ok, 1] * H / cam.height).astype(int), 0, H - 1)
+        seen[ok] += 1
+        inside[np.flatnonzero(ok)[m[v, u]]] += 1
+    return (seen >= 3) & (inside >= agree * seen)
+
+
 def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, n: int = HULL_VOXELS,
           agree: float = AGREE, box: tuple[np.ndarray, np.ndarray] | None = None) -> VoxelHull:
     """The voxels at least ``agree`` of the views seeing them call object, above the support, in ``box``
@@ -82,17 +98,7 @@ def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, 
     voxel = float((hi - lo).max()) / n
     axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    seen = np.zeros(len(grid), np.int32)
-    inside = np.zeros(len(grid), np.int32)
-    g32 = grid.astype(np.float32)
-    for cam, m in zip(cameras, masks):
-        uv, ok = in_view(cam, g32)
-        H, W = m.shape
-        u = np.clip((uv[ok, 0] * W / cam.width).astype(int), 0, W - 1)
-        v = np.clip((uv[ok, 1] * H / cam.height).astype(int), 0, H - 1)
-        seen[ok] += 1
-        inside[np.flatnonzero(ok)[m[v, u]]] += 1
-    keep = (seen >= 3) & (inside >= agree * seen) & (region.height(grid) > PLANE_TOL * region.radius)
+    keep = called_object(cameras, masks, grid, agree) & (region.height(grid) > PLANE_TOL * region.radius)
     occupied = keep.reshape([len(a) for a in axes])
     # what stands apart from the object's body is not the object (a patch of floor a few cuts took)
     labels, count = ndimage.label(occupied)

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import ndimage
 
 from ...cameras import Camera
-from .hull import FIRST_AGREE, VoxelHull, carve, shadow
+from .hull import AGREE, FIRST_AGREE, VoxelHull, called_object, carve, shadow
 from .region import ObjectRegion
 
 THIN_VOXELS = 160
@@ -75,11 +75,15 @@ def restore_thin_parts(cameras: list[Camera], first: list[np.ndarray], final: li
     lo = body.origin + (ijk.min(axis=0) - 0.5) * body.voxel
     hi = body.origin + (ijk.max(axis=0) + 0.5) * body.voxel
     grow = MARGIN * float((hi - lo).max())
-    box = (lo - grow, hi + grow)
     both = [f | m for f, m in zip(first, final)]
-    fine = carve(cameras, both, region, n=THIN_VOXELS, agree=FIRST_AGREE, box=box)
-    # the body on the same grid: a box's edges and corners, which a coarser hull rounds, stand out of nothing
-    thin = protrusions(fine, carve(cameras, final, region, n=THIN_VOXELS, box=box), region.height)
+    fine = carve(cameras, both, region, n=THIN_VOXELS, agree=FIRST_AGREE, box=(lo - grow, hi + grow))
+    # the body on the same grid (a box's edges and corners, which a coarser hull rounds, stand out of nothing),
+    # voted on at ``fine``'s voxels only: the final masks lie within the first ones', so the body within ``fine``
+    ijk = np.argwhere(fine.occupied)
+    centres = fine.origin + ijk * fine.voxel
+    inside = np.zeros_like(fine.occupied)
+    inside[tuple(ijk[called_object(cameras, final, centres, AGREE)].T)] = True
+    thin = protrusions(fine, VoxelHull(inside, fine.origin, fine.voxel), region.height)
     count = int(thin.occupied.sum())
     if count == 0:
         return final, 0
