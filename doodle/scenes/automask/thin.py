@@ -80,11 +80,9 @@ def restore_thin_parts(cameras: list[Camera], first: list[np.ndarray], final: li
     both = [f | m for f, m in zip(first, final)]
     fine = carve(cameras, both, region, n=THIN_VOXELS, agree=FIRST_AGREE, box=(lo - grow, hi + grow))
     # the body on the same grid (a box's edges and corners, which a coarser hull rounds, stand out of nothing),
-    # voted on at ``fine``'s voxels only: the final masks lie within the first ones', so the body within ``fine``
-    ijk = np.argwhere(fine.occupied)
-    centres = fine.origin + ijk * fine.voxel
+    # voted on at ``fine``'s voxels only: the final masks lie within ``both``, so the body within ``fine``
     inside = np.zeros_like(fine.occupied)
-    inside[tuple(ijk[called_object(cameras, final, centres, AGREE)].T)] = True
+    inside[tuple(np.argwhere(fine.occupied)[called_object(cameras, final, fine.centres, AGREE)].T)] = True
     thin = protrusions(fine, VoxelHull(inside, fine.origin, fine.voxel), region.height)
     count = int(thin.occupied.sum())
     if count == 0:
