@@ -31,7 +31,7 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 
 
 #: ``doodle --help`` lists the commands in the order a user meets them.
-COMMAND_ORDER = ("demo", "sample", "fit", "info", "export", "animate", "view", "batch", "styles", "eval", "convert",
+COMMAND_ORDER = ("demo", "sample", "masks", "fit", "info", "export", "animate", "view", "batch", "styles", "eval", "convert",
                  "export3d", "blender-addon")
 
 
@@ -615,6 +615,61 @@ def fit(scene_dir: Path, out_path: Path, split: str, masks: str, resume: bool, *
         click.echo(msg + f" (interrupted; --resume goes on from {ckpt})")
         sys.exit(130)
     click.echo(msg)
+
+
+@cli.command(short_help="Make the automatic masks of photos, to check or fix.")
+@click.argument("scene_dir", metavar="SCENE", type=click.Path(path_type=Path))
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for the masks, NAME.png per view [default: SCENE/doodle-masks, where a fit reads them].")
+@click.option("--split", default="train", show_default=True, help="Dataset split (NeRF-synthetic).")
+@click.option("--size", type=click.IntRange(16, 4096), default=512, show_default=True,
+              help="Image size (larger side, px) to make them at: a fit at the same size reads them instead of "
+                   "making them again.")
+@click.option("--sheet", type=click.Path(dir_okay=False, path_type=Path),
+              help="Also write a contact sheet of the photos with each mask's outline (PNG).")
+@click.option("--against", "truth_dir", type=click.Path(exists=True, file_okay=False, path_type=Path),
+              help="Measure them against these masks (NAME.png per view) [default: the scene's own, if any].")
+def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: Path | None,
+          truth_dir: Path | None) -> None:
+    """Make the object masks a fit makes for photos without them (whatever the scene holds), save them with the
+    marker that says they are automatic, and measure them against true masks when there are some (the scene's
+    alpha or masks folder, or --against). Fix any by hand and fit with --masks DIR."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from .atomic import check_writable
+    from .scenes import load_scene_at_size
+    from .scenes.automask import auto_masks, saved_masks, with_masks, write_masks
+
+    out_dir = out_dir or Path(scene_dir) / "doodle-masks"
+    if sheet is not None:
+        check_writable(sheet)
+    scene = load_scene_at_size(scene_dir, split, size)
+    _log(f"loaded {len(scene)} views from {scene_dir}")
+    truth = with_masks(scene, truth_dir, log=_log).masks if truth_dir is not None else scene.masks
+    bare = replace(scene, masks=None, masks_automatic=False)
+    saved = saved_masks(bare, out_dir)
+    if saved is not None and not saved[1]:
+        raise UserError(f"{out_dir}: holds masks fixed by hand; give another folder with -o (or delete it)")
+    made = auto_masks(bare, _log)
+    write_masks(bare, made, out_dir)
+    click.echo(f"wrote {len(made)} masks to {out_dir}: the object covers "
+               f"{100 * float(np.mean([m.mean() for m in made])):.0f}% of the image on average")
+    if truth is not None:
+        ious = [float((a & b).sum() / max((a | b).sum(), 1)) for a, b in zip(made, truth)]
+        worst = int(np.argmin(ious))
+        click.echo(f"IoU with the true masks: mean {np.mean(ious):.3f}, worst {ious[worst]:.3f} "
+                   f"({scene.cameras[worst].name})")
+    if sheet is not None:
+        from .atomic import atomic_path
+        from .exporters.raster import contact_sheet, mask_overlay
+
+        with atomic_path(sheet) as tmp:
+            cell = min(256, max(max(m.shape) for m in made))
+            contact_sheet([mask_overlay(img, m) for img, m in zip(scene.images, made)], cell=cell,
+                          labels=[c.name for c in scene.cameras]).save(tmp, format="PNG")
+        click.echo(f"wrote {sheet}")
 
 
 @cli.command(name="eval", short_help="Score a sketch on held-out views (and 3D curves).")

@@ -3,7 +3,9 @@ floor and background: the generated phone capture of the chair, end to end."""
 
 from __future__ import annotations
 
+import os
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -98,7 +100,10 @@ def test_undistort_moves_a_point_to_its_pinhole_projection():
     assert abs(ud - (100.0 * 0.45 + 61.0)) > 2  # the distortion was real (2.6 px here)
 
 
-def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path):
+def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path, monkeypatch):
+    from dataclasses import replace
+
+    from doodle.scenes import automask
     from doodle.scenes.automask import with_masks
 
     truth = load_colmap(capture, masks_dir=capture / "true_masks").masks
@@ -112,6 +117,28 @@ def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path)
     again = with_masks(scene, tmp_path / "m", log=lambda m: None)
     assert all(_iou(a, b) > 0.99 for a, b in zip(again.masks, found))
     assert again.masks_automatic and again.subset([0, 1]).masks_automatic
+    # a later fit of the same views reads them instead of making them again (minutes on a real capture) …
+    said = []
+    reused = with_masks(scene, "auto", tmp_path / "m", log=said.append)
+    assert reused.masks_automatic and all((a == b).all() for a, b in zip(reused.masks, found)) and "made before" in said[0]
+    made = []
+    monkeypatch.setattr(automask, "auto_masks", lambda sc, log: made.append(1) or [np.ones(i.shape[:2], bool)
+                                                                                for i in sc.images])
+    # … while a changed photo makes them anew, over the old ones
+    changed = replace(scene, images=[scene.images[0] * 0.5, *scene.images[1:]])
+    assert with_masks(changed, "auto", tmp_path / "m", log=said.append).masks[0].all() and made == [1]
+    assert with_masks(changed, "auto", tmp_path / "m", log=said.append).masks[0].all() and made == [1]
+    # a mask saved after them (fixed by hand, the marker left) is never made again over, whatever the views
+    edited = tmp_path / "m" / f"{scene.cameras[0].name}.png"
+    Image.fromarray(found[0].astype(np.uint8) * 255).save(edited)
+    os.utime(edited, (time.time() + 5, time.time() + 5))
+    kept = with_masks(scene, "auto", tmp_path / "m", log=said.append)
+    assert made == [1] and not kept.masks_automatic and (kept.masks[0] == found[0]).all() and "by hand" in said[-1]
+    missing = tmp_path / "m" / f"{scene.cameras[1].name}.png"
+    missing.unlink()
+    with pytest.raises(SceneError, match=f"no mask for view {scene.cameras[1].name}.*fixed by hand"):
+        with_masks(scene, "auto", tmp_path / "m", log=said.append)
+    Image.fromarray(found[1].astype(np.uint8) * 255).save(missing)
     # … until the marker is deleted (masks fixed by hand are exact); given masks never are
     (tmp_path / "m" / "doodle-masks.json").unlink()
     assert not with_masks(scene, tmp_path / "m", log=lambda m: None).masks_automatic
@@ -329,11 +356,12 @@ def _rgb_copy(src: Path, dst: Path, suffix: str = ".jpg") -> None:
 
 def test_posed_rgb_photos_get_automatic_masks_not_an_all_object_mask(tmp_path):
     """A NeRF-synthetic folder of RGB JPEGs (poses, no alpha) and the same as a nerfstudio folder: no masks on
-    load (never an all-object mask), automatic masks seeded where the known cameras aim, and a fit."""
+    load (never an all-object mask), and automatic masks seeded where the known cameras aim, made by
+    ``doodle masks`` (measured against the truth, shown on a sheet), which never overwrites masks fixed by hand."""
     import json
 
     from doodle.samples import write_sample
-    from doodle.scenes.automask import with_masks
+    from doodle.scenes.automask import MARKER, with_masks
 
     d = write_sample("parcel", tmp_path / "rgba", n_train=16, n_test=1, size=128)
     _rgb_copy(d, tmp_path / "rgb")
@@ -354,10 +382,22 @@ def test_posed_rgb_photos_get_automatic_masks_not_an_all_object_mask(tmp_path):
         frames.append({"file_path": f"images/{name}", "transform_matrix": fr["transform_matrix"]})
     (ns / "transforms.json").write_text(json.dumps({"fl_x": f, "fl_y": f, "cx": 64, "cy": 64, "w": 128, "h": 128,
                                                     "frames": frames}))
-    r = CliRunner().invoke(cli, ["fit", str(ns), "-o", str(tmp_path / "ns.doodleb"), "--size", "128",
-                                 "--evidence-voxels", "96"])
+    assert load_scene(ns).masks is None
+    (tmp_path / "truth").mkdir()
+    for cam, m in zip(scene.cameras, truth):
+        Image.fromarray(m.astype(np.uint8) * 255).save(tmp_path / "truth" / f"{cam.name}.png")
+    r = CliRunner().invoke(cli, ["masks", str(ns), "--against", str(tmp_path / "truth"), "--sheet",
+                                 str(tmp_path / "m.png")])
     assert r.exit_code == 0, r.output
-    assert "automatic masks" in r.output and len(list((ns / "doodle-masks").glob("*.png"))) == 16
+    assert len(list((ns / "doodle-masks").glob("*.png"))) == 16 and (ns / "doodle-masks" / MARKER).is_file()
+    iou = float(r.output.split("IoU with the true masks: mean ")[1].split(",")[0])
+    assert iou > 0.9 and Image.open(tmp_path / "m.png").size[0] >= 4 * 128, r.output
+    # fixed by hand (the marker deleted): `doodle masks` refuses to make them again over
+    (ns / "doodle-masks" / MARKER).unlink()
+    before = (ns / "doodle-masks" / "r_0.png").read_bytes()
+    r = CliRunner().invoke(cli, ["masks", str(ns)])
+    assert r.exit_code == 2 and "fixed by hand" in r.output and "Traceback" not in r.output
+    assert (ns / "doodle-masks" / "r_0.png").read_bytes() == before
 
 
 def test_some_views_with_alpha_and_some_without_is_an_error(tmp_path):

@@ -19,11 +19,15 @@ per-view colour models, and the views are made to agree on one object.
 
 A scene with such masks says so (``Scene.masks_automatic``), and so does a folder they were saved to (its
 :data:`MARKER` file): the fit then carves its hull allowing a few views to disagree
-(:data:`doodle.scenes.scene.HULL_DISAGREE`), since each of these boundaries may be a pixel or two off.
+(:data:`doodle.scenes.scene.HULL_DISAGREE`), since each of these boundaries may be a pixel or two off. The
+marker also holds the views' :func:`fingerprint`: a later fit of the same photos at the same size reads the
+saved masks instead of making them again (minutes on a real capture), and masks fixed by hand (no marker, or
+saved after it) are used as they are, never made again over.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
@@ -51,7 +55,8 @@ MIN_AGREEMENT = 0.7
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 
-__all__ = ["MARKER", "ObjectRegion", "auto_masks", "check_masks", "object_region", "with_masks", "write_masks"]
+__all__ = ["MARKER", "ObjectRegion", "auto_masks", "check_masks", "fingerprint", "object_region", "saved_masks",
+           "with_masks", "write_masks"]
 
 
 def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -187,26 +192,76 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
             for m, full in zip(masks, scene.images)]
 
 
+def fingerprint(scene: Scene) -> str:
+    """A digest of what automatic masks are made from: each view's name, pose, intrinsics and pixels as loaded
+    (another photo, another ``--size``, a new SfM run each change it), and the doodle release that made them."""
+    from ... import __version__
+
+    h = hashlib.blake2b(digest_size=16)
+    h.update(__version__.encode())
+    for cam, img in zip(scene.cameras, scene.images):
+        h.update(f"{cam.name}|{cam.fx},{cam.fy},{cam.cx},{cam.cy},{cam.width},{cam.height}|{img.shape}|{img.dtype}"
+                 .encode())
+        h.update(np.asarray(cam.R, np.float64).tobytes() + np.asarray(cam.t, np.float64).tobytes())
+        h.update(np.ascontiguousarray(img).tobytes())
+    return h.hexdigest()
+
+
 def write_masks(scene: Scene, masks: list[np.ndarray], folder: Path) -> Path:
     """Save masks as ``FOLDER/NAME.png`` (white = object), one per view, named after the view's image, each
-    written atomically, and the :data:`MARKER` that says they are automatic."""
+    written atomically, and the :data:`MARKER` that says they are automatic and what they were made from."""
     from ...atomic import atomic_path, write_text
 
     folder.mkdir(parents=True, exist_ok=True)
     for cam, m in zip(scene.cameras, masks):
         with atomic_path(folder / f"{cam.name}.png") as tmp:
             Image.fromarray(m.astype(np.uint8) * 255).save(tmp, format="PNG")
-    write_text(folder / MARKER, json.dumps({"masks": "automatic", "made_by": "doodle fit --masks auto",
+    write_text(folder / MARKER, json.dumps({"masks": "automatic", "made_by": "doodle", "views": fingerprint(scene),
                                             "note": "delete this file once the masks are fixed by hand"}, indent=1) + "\n")
     return folder
+
+
+def saved_masks(scene: Scene, folder: Path) -> tuple[list[np.ndarray], bool] | None:
+    """The masks saved in ``folder`` for ``scene``, and whether they are automatic; ``None`` when there are none
+    to use: no folder, a mask missing, or automatic masks made from other views (:func:`fingerprint`). Masks
+    fixed by hand (no :data:`MARKER`, or a mask saved after it) are used whatever they were made from.
+
+    Raises:
+        SceneError: masks fixed by hand that lack a view's mask.
+    """
+    from ..images import read_mask_folder
+
+    marker = folder / MARKER
+    files = [p for p in folder.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg")] if folder.is_dir() else []
+    if not files:
+        return None
+    # a mask saved after the marker was edited by hand (the marker left in place): never made again over it
+    edited = marker.is_file() and max(p.stat().st_mtime for p in files) > marker.stat().st_mtime + 1.0
+    automatic = marker.is_file() and not edited
+    if automatic:
+        try:
+            made_from = json.loads(marker.read_text()).get("views")
+        except (OSError, ValueError, AttributeError):
+            return None
+        if made_from != fingerprint(scene):
+            return None
+    try:
+        masks = read_mask_folder(folder, [c.name for c in scene.cameras], [(c.width, c.height) for c in scene.cameras])
+    except SceneError as exc:
+        if automatic:  # one deleted: all are made again
+            return None
+        raise SceneError(f"{str(exc).splitlines()[0]}; these masks were fixed by hand: add the missing ones, or "
+                         "delete the folder to make automatic masks again") from None
+    return masks, automatic
 
 
 def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = None,
                log: Callable[[str], None] = print) -> Scene:
     """The scene with the masks ``how`` asks for: ``"auto"`` keeps the scene's own masks (alpha, a masks
-    folder) or makes them (:func:`auto_masks`) and saves them to ``auto_dir`` for inspection; ``"none"``
-    drops them; anything else is a folder of masks, one ``NAME.png`` per view (automatic if it holds the
-    :data:`MARKER` file)."""
+    folder), else reads those saved in ``auto_dir`` (:func:`saved_masks`: made for these views, or fixed by
+    hand), else makes them (:func:`auto_masks`) and saves them there for inspection; ``"none"`` drops them;
+    anything else is a folder of masks, one ``NAME.png`` per view (automatic if it holds the :data:`MARKER`
+    file)."""
     from ..images import read_mask_folder
 
     if str(how) == "none":
@@ -221,6 +276,12 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
         return replace(scene, masks=masks, masks_automatic=automatic)
     if scene.masks is not None:
         return scene
+    saved = saved_masks(scene, auto_dir) if auto_dir is not None else None
+    if saved is not None:
+        masks, automatic = saved
+        made = "automatic, made before from these views; delete it to make them again" if automatic else "fixed by hand"
+        log(f"masks from {auto_dir} ({made})")
+        return replace(scene, masks=masks, masks_automatic=automatic)
     masks = auto_masks(scene, log)
     if auto_dir is not None:
         try:
