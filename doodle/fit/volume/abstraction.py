@@ -178,11 +178,17 @@ def _loss(d: torch.Tensor, target: torch.Tensor, weight: torch.Tensor, tau: floa
     return lp + ln
 
 
-def _optimise(params: SuperquadricParams, loss_fn: Callable[[], torch.Tensor], steps: int, lr: float) -> None:
-    groups = [{"params": [params.log_scale, params.raw_shape, params.rotation], "lr": lr},
-              {"params": [params.translation], "lr": lr * float(params.log_scale.detach().exp().mean())}]
-    if params.deformable:
-        groups.append({"params": [params.raw_taper, params.raw_bend, params.bend_direction], "lr": lr})
+def _optimise(params: SuperquadricParams | list[SuperquadricParams], loss_fn: Callable[[], torch.Tensor], steps: int,
+              lr: float) -> None:
+    """Adam with a cosine schedule; the translation's rate in units of the set's mean size. A list of sets is
+    optimised at once (one loss over all their rows), each with its own translation rate: the same steps as
+    one by one, at one set's cost in torch's per-operation overhead."""
+    groups = []
+    for p in params if isinstance(params, list) else [params]:
+        groups += [{"params": [p.log_scale, p.raw_shape, p.rotation], "lr": lr},
+                   {"params": [p.translation], "lr": lr * float(p.log_scale.detach().exp().mean())}]
+        if p.deformable:
+            groups.append({"params": [p.raw_taper, p.raw_bend, p.bend_direction], "lr": lr})
     opt = torch.optim.Adam(groups)
     base = [g["lr"] for g in opt.param_groups]
     for step in range(steps):
@@ -342,19 +348,16 @@ class _PartTaker:
             part = int(np.argmax(sizes)) + 1
             self.parts += 1
             mine = labels == part
-            fit = lambda m, covered=covered: _fit_part(m, thick, covered, self.care, self.origin, cvox, self.axes,
-                                                       self.tau, self.radius, self.steps, self.rng)
-            plain, own_iou, deformed = fit(mine)
             # The split may cut one body in two (a mug's, at a bulge of its hull): one superquadric over the part
             # and its largest neighbour wins when it explains both about as well as the part's own does one.
             touching = np.unique(labels[ndimage.binary_dilation(mine) & ~mine])
             touching = touching[touching > 0]
-            if len(touching):
-                other = touching[np.argmax(sizes[touching - 1])]
-                both = mine | (labels == other)
-                plain2, iou2, deformed2 = fit(both)
-                if iou2 >= max(MERGE_IOU, own_iou - 0.02):
-                    plain, own_iou, mine, deformed = plain2, iou2, both, deformed2
+            tries = [mine] + ([mine | (labels == touching[np.argmax(sizes[touching - 1])])] if len(touching) else [])
+            fits = _fit_parts(tries, thick, covered, self.care, self.origin, cvox, self.axes, self.tau, self.radius,
+                              self.steps, self.rng)
+            plain, own_iou, deformed = fits[0]
+            if len(fits) > 1 and fits[1][1] >= max(MERGE_IOU, own_iou - 0.02):
+                (plain, own_iou, deformed), mine = fits[1], tries[1]
             d = _distance(self.centres, plain)[0]  # the plain fits decide (a deformed one is judged on the views)
             trial = union | (d <= cvox)
             gain = (trial & shell).sum() / max(shell.sum(), 1) - best
@@ -372,63 +375,101 @@ class _PartTaker:
             union, best = trial, best + gain
 
 
-def _fit_part(mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np.ndarray, origin: np.ndarray,
-              voxel: float, axes: np.ndarray, tau: float, grow: int, steps: int, rng: np.random.Generator,
-              max_points: int = 2000
-              ) -> tuple[SuperquadricSet, float, Callable[[], SuperquadricSet | None]]:
-    """One superquadric for the part ``mine``: its voxels inside, the empty voxels around it outside, the rest
-    of the thick part weakly outside, what is already explained (``covered``) and thin parts not at all.
-    Returns it, its IoU with the part (what it holds of the part, over the part and the empty voxels it spills
-    into), and a function that fits the part again tapered and bent, giving the deformed superquadric or
-    ``None`` when it explains the part too little better (:data:`DEFORM_RESIDUAL`): called only for parts the
-    abstraction keeps. The parts and their count are chosen by the plain fits, so a judge that turns every
-    deformed one back to its plain fit gets the plain abstraction."""
-    ijk = np.argwhere(mine)
-    lo = np.maximum(ijk.min(axis=0) - 2 * grow, 0)
-    hi = np.minimum(ijk.max(axis=0) + 2 * grow + 1, mine.shape)
-    box = tuple(slice(a, b) for a, b in zip(lo, hi))
-    sub = np.argwhere(care[box] & ~(covered[box] & ~mine[box])) + lo
-    at = tuple(sub.T)
-    target = mine[at].astype(np.float32)
-    weight = np.where(mine[at], 1.0, np.where(thick[at], OTHER_PART_WEIGHT, 1.0)).astype(np.float32)
-    if len(sub) > max_points:
-        pick = rng.choice(len(sub), max_points, replace=False)
-        sub, target, weight = sub[pick], target[pick], weight[pick]
-    to_world = lambda a: origin + (a * voxel) @ axes  # noqa: E731
-    # Adam does not square a rounded cross-section by itself (a mug's body fitted from a ball comes out as two
-    # stacked pills): each part starts as a ball, a cylinder and a box (:data:`STARTS`), fitted at once, and
-    # the best is kept.
-    pts = to_world(ijk.astype(np.float64))
-    starts = [_initial(pts, axes.T if frame == "grid" else None, factor) for _, frame, factor in STARTS]
-    params = SuperquadricParams(np.array([a for a, _, _ in starts]), np.array([e for e, _, _ in STARTS]),
-                     np.array([q for _, q, _ in starts]), np.array([c for _, _, c in starts]))
-    P = torch.from_numpy(to_world(sub.astype(np.float64)).astype(np.float32))
-    T, W = torch.from_numpy(target)[None], torch.from_numpy(weight)[None]
-    _optimise(params, lambda: _loss(radial_distance(P, *params.values()), T, W, tau), steps, 0.03)
+def _fit_parts(masks: list[np.ndarray], thick: np.ndarray, covered: np.ndarray, care: np.ndarray,
+               origin: np.ndarray, voxel: float, axes: np.ndarray, tau: float, grow: int, steps: int,
+               rng: np.random.Generator) -> list[tuple[SuperquadricSet, float, Callable[[], SuperquadricSet | None]]]:
+    """One superquadric for each part in ``masks`` (:class:`_Part`), fitted at once: each part's starts are rows
+    of one optimisation (its points padded to the longest part's with zero weight), each part with its own
+    learning rates, so the fits are each part's own at the cost of one (a part and the part merged with its
+    neighbour, in :meth:`_PartTaker.parts_of`). Returns, per part, its superquadric, its IoU with the part and
+    its :meth:`_Part.deformed`."""
+    parts = [_Part.of(m, thick, covered, care, origin, voxel, axes, grow, rng) for m in masks]
+    n = max(len(p.target) for p in parts)
+    P = torch.stack([torch.cat([p.points, p.points[:1].expand(n - len(p.points), 3)]) for p in parts for _ in STARTS])
+    T, W = (torch.stack([torch.nn.functional.pad(getattr(p, a), (0, n - len(p.target))) for p in parts for _ in STARTS])
+            for a in ("target", "weight"))
+    sets = [p.params for p in parts]
+
+    def loss() -> torch.Tensor:
+        values = [torch.cat(v) for v in zip(*(q.values() for q in sets))]
+        return _loss(radial_distance(P, *values), T, W, tau)
+
+    _optimise(sets, loss, steps, 0.03)
     with torch.no_grad():
-        best = int(torch.argmin(_loss(radial_distance(P, *params.values()), T, W, tau)))
-    sq = params.to_set().subset(np.array([best]))
-    inside_pts, spill_pts = to_world(ijk.astype(np.float64)), to_world(np.argwhere(~thick[box] & care[box]) + lo)
+        best = loss().reshape(len(parts), len(STARTS)).argmin(1)
+    return [p.chosen(int(k), tau, steps) for p, k in zip(parts, best)]
 
-    def part_iou(s: SuperquadricSet) -> np.ndarray:
-        """``(M,)``: each of ``s``'s IoU with the part."""
-        return (_distance(inside_pts, s) <= 0).sum(1) / (len(ijk) + (_distance(spill_pts, s) <= 0).sum(1))
 
-    iou = float(part_iou(sq)[0])
+@dataclass
+class _Part:
+    """One part's fit (Marching-Primitives' step, :func:`_fit_parts`): its voxels inside, the empty voxels around
+    it outside, the rest of the thick part weakly outside, what is already explained and thin parts not at
+    all; at most ``max_points`` of them. Adam does not square a rounded cross-section by itself (a mug's body
+    fitted from a ball comes out as two stacked pills): each part starts as a ball, a cylinder and a box
+    (:data:`STARTS`), fitted at once, and the best is kept."""
 
-    def deformed() -> SuperquadricSet | None:
-        # A cone-like or curved part: the plain one's fit, tapered and bent along each of its axes in turn
-        # (the deformations act along the local z: a squat cone's axis is its shortest). A bend's plane gets no
-        # gradient while it is unbent, so each axis starts bending in two perpendicular planes.
-        deformable = SuperquadricParams.from_set(_deformed_starts(sq), deformable=True)
-        _optimise(deformable, lambda: _loss(radial_distance(P, *deformable.values(), deformable.deformation()),
-                                            T, W, tau), steps, 0.03)
-        tries = deformable.to_set()
-        scores = part_iou(tries)
-        k = int(np.argmax(scores))
-        return tries.subset(np.array([k])) if 1 - scores[k] <= DEFORM_RESIDUAL * (1 - iou) else None
+    points: torch.Tensor
+    """``(P, 3)`` world points the fit sees, with ``target`` (inside or not) and ``weight`` ``(P,)``."""
+    target: torch.Tensor
+    weight: torch.Tensor
+    params: SuperquadricParams
+    """The starts, one row each."""
+    inside_pts: np.ndarray
+    """``(I, 3)`` the part's voxels, and ``spill_pts`` the empty voxels in its box, for its IoU."""
+    spill_pts: np.ndarray
 
-    return sq, iou, deformed
+    @classmethod
+    def of(cls, mine: np.ndarray, thick: np.ndarray, covered: np.ndarray, care: np.ndarray, origin: np.ndarray,
+           voxel: float, axes: np.ndarray, grow: int, rng: np.random.Generator, max_points: int = 2000) -> _Part:
+        ijk = np.argwhere(mine)
+        lo = np.maximum(ijk.min(axis=0) - 2 * grow, 0)
+        hi = np.minimum(ijk.max(axis=0) + 2 * grow + 1, mine.shape)
+        box = tuple(slice(a, b) for a, b in zip(lo, hi))
+        sub = np.argwhere(care[box] & ~(covered[box] & ~mine[box])) + lo
+        at = tuple(sub.T)
+        target = mine[at].astype(np.float32)
+        weight = np.where(mine[at], 1.0, np.where(thick[at], OTHER_PART_WEIGHT, 1.0)).astype(np.float32)
+        if len(sub) > max_points:
+            pick = rng.choice(len(sub), max_points, replace=False)
+            sub, target, weight = sub[pick], target[pick], weight[pick]
+        to_world = lambda a: origin + (a * voxel) @ axes  # noqa: E731
+        pts = to_world(ijk.astype(np.float64))
+        starts = [_initial(pts, axes.T if frame == "grid" else None, factor) for _, frame, factor in STARTS]
+        params = SuperquadricParams(np.array([a for a, _, _ in starts]), np.array([e for e, _, _ in STARTS]),
+                                    np.array([q for _, q, _ in starts]), np.array([c for _, _, c in starts]))
+        return cls(torch.from_numpy(to_world(sub.astype(np.float64)).astype(np.float32)), torch.from_numpy(target),
+                   torch.from_numpy(weight), params, pts, to_world(np.argwhere(~thick[box] & care[box]) + lo))
+
+    def iou(self, s: SuperquadricSet) -> np.ndarray:
+        """``(M,)``: each of ``s``'s IoU with the part (what it holds of it, over the part and the empty voxels
+        it spills into)."""
+        held = (_distance(self.inside_pts, s) <= 0).sum(1)
+        return held / (len(self.inside_pts) + (_distance(self.spill_pts, s) <= 0).sum(1))
+
+    def chosen(self, best: int, tau: float, steps: int
+               ) -> tuple[SuperquadricSet, float, Callable[[], SuperquadricSet | None]]:
+        """The fitted start ``best``, its IoU with the part, and a function that fits the part again tapered and
+        bent, giving the deformed superquadric or ``None`` when it explains the part too little better
+        (:data:`DEFORM_RESIDUAL`): called only for parts the abstraction keeps. The parts and their count are
+        chosen by the plain fits, so a judge that turns every deformed one back to its plain fit gets the
+        plain abstraction."""
+        sq = self.params.to_set().subset(np.array([best]))
+        iou = float(self.iou(sq)[0])
+        P, T, W = self.points, self.target[None], self.weight[None]
+
+        def deformed() -> SuperquadricSet | None:
+            # A cone-like or curved part: the plain one's fit, tapered and bent along each of its axes in turn
+            # (the deformations act along the local z: a squat cone's axis is its shortest). A bend's plane gets
+            # no gradient while it is unbent, so each axis starts bending in two perpendicular planes.
+            deformable = SuperquadricParams.from_set(_deformed_starts(sq), deformable=True)
+            _optimise(deformable, lambda: _loss(radial_distance(P, *deformable.values(), deformable.deformation()),
+                                                T, W, tau), steps, 0.03)
+            tries = deformable.to_set()
+            scores = self.iou(tries)
+            k = int(np.argmax(scores))
+            return tries.subset(np.array([k])) if 1 - scores[k] <= DEFORM_RESIDUAL * (1 - iou) else None
+
+        return sq, iou, deformed
 
 
 def _deformed_starts(sq: SuperquadricSet) -> SuperquadricSet:
