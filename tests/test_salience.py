@@ -9,8 +9,8 @@ import pytest
 
 from doodle.evaluate import boundary_recall
 from doodle.fit.discovery.discover import choose_curves, find_candidates
-from doodle.fit.discovery.salience import (Feature, albedo_steps, choose_features, closure, duplicates, feature_cubics,
-                                           group_features, score_features, symmetry_planes)
+from doodle.fit.discovery.salience import (MIN_STEP, Feature, albedo_steps, choose_features, closure, duplicates,
+                                           feature_cubics, group_features, score_features, symmetry_planes)
 from doodle.fit.volume.carve import VoxelGrid
 from doodle.samples import load_ground_truth, painted_boundaries, sample_cameras, write_sample
 from doodle.samples.primitives import Sphere
@@ -119,6 +119,14 @@ def test_paint_is_a_step_in_the_images_and_shading_a_ramp():
     assert abs(measure(step, inside) - math.log(2)) < 0.05
     assert measure(ramp, inside) == 0.0
     assert measure(step, outline) == 0.0  # one side is the background
+    # a line darker than both its sides (a seam, a drawn stroke, the gap between teeth) counts as much as a
+    # step of its darkness, and a pixel off the curve still as paint; a broad trough of shading, darker still
+    # farther out, not
+    seam = lambda at: np.where(np.abs(x + 0.5 - at) < 1.0, 100, 200).astype(np.uint8)[..., None].repeat(3, -1)
+    assert abs(measure(seam(W / 2), inside) - math.log(2)) < 0.05
+    assert measure(seam(W / 2 + 1), inside) >= MIN_STEP
+    trough = np.clip(100 + np.abs(x + 0.5 - W / 2) * 12, 0, 255).astype(np.uint8)[..., None].repeat(3, -1)
+    assert measure(trough, inside) == 0.0
 
 
 def test_painted_boundaries_are_where_the_print_meets_the_bare_surface():

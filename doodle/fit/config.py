@@ -61,15 +61,20 @@ class DetailLevel:
     open_features: bool = False
     """...closed ones only (rings: an eye, a button, a patch), or open marks as well after every ring (a mouse's
     button seams: at ``medium`` its painted boundaries drawn went 0.692 → 0.859 with them, F 0.987 → 0.975)."""
+    min_salience: float = 0.01
+    """...down to this salience (:data:`~doodle.fit.discovery.salience.MIN_SALIENCE` at ``low``): ``medium`` and
+    ``high`` draw the secondary lines too — a seam across the object, which its length ranks low (DTU skull's
+    cranial cut: 0.0095)."""
 
 
 DETAIL_LEVELS: dict[str, DetailLevel] = {
     "low": DetailLevel(curves=12, outline_curves=24, superquadrics=6, superquadric_gain=0.02, curve_gain=0.004,
                        features=3),
     "medium": DetailLevel(curves=40, outline_curves=24, superquadrics=8, superquadric_gain=0.01, curve_gain=0.0015,
-                          features=8, open_features=True),
+                          features=8, open_features=True, min_salience=0.005),
     "high": DetailLevel(curves=AUTO_MAX_CURVES, outline_curves=AUTO_OUTLINE_CURVES, superquadrics=12,
-                        superquadric_gain=0.005, curve_gain=0.0005, features=24, open_features=True),
+                        superquadric_gain=0.005, curve_gain=0.0005, features=24, open_features=True,
+                        min_salience=0.002),
 }
 """``--detail``: at ``medium`` (the default) a stroke file of an object like a teapot or a cow takes under 2 kB."""
 

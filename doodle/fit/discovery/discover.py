@@ -35,6 +35,7 @@ from .facing import curve_normals
 from .hollows import Hollow, clear_of, find_hollows
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, Rims, find_rims
+from .salience import MIN_SALIENCE
 from .sightlines import seen_through
 from .texture import SMOOTH_SHARE, on_smooth_faces, smooth_shares
 
@@ -633,7 +634,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
                   polish: bool = True, outline_curves: int = 0, whole_outline: float = 0.0, most_outline: int = 0,
-                  features: int = 0, open_features: bool = False, over=None, occluder=None,
+                  features: int = 0, open_features: bool = False, min_salience: float = MIN_SALIENCE,
+                  over=None, occluder=None,
                   occlusion_margin: float = 0.0,
                   log: Callable[[str], None] = lambda m: None) -> Discovery:
     """Choose among the candidates (greedy marginal coverage, see :func:`select_strokes`), polish the chosen
@@ -655,7 +657,8 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             outline pixels, outline strokes go on past ``outline_curves``, up to ``most_outline`` in all: an
             object the superquadrics cannot abstract (Lego) is drawn whole, in a larger file.
         features: then up to this many features on smooth faces (eyes, a muzzle, patches, buttons), chosen by
-            salience (:mod:`.salience`), not by pixels: closed ones only, or with ``open_features`` open marks
+            salience (:mod:`.salience`) down to ``min_salience``, not by pixels: closed ones only, or with
+            ``open_features`` open marks
             too.
         over, occluder: the superquadrics (a :class:`~doodle.strokes.model.SuperquadricSet`) and the occluder
             (:class:`~doodle.strokes.model.Voxels`) the drawing hides behind, from behind which the hollows'
@@ -698,7 +701,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             cand.smooth.any() or cand.traces.hollows):
         from .salience import duplicates, feature_cubics
 
-        painted = _salient(cand, chosen, features, open_features, over, occluder, occlusion_margin)
+        painted = _salient(cand, chosen, features, open_features, over, occluder, occlusion_margin, min_salience)
         if painted:
             drawings = [feature_cubics(f, cand.controls, TOLERANCE_VOXELS * h) for f in painted]
             painted_controls = np.concatenate(drawings)
@@ -752,7 +755,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
 
 
 def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bool, over=None, occluder=None,
-             occlusion_margin: float = 0.0) -> list:
+             occlusion_margin: float = 0.0, min_salience: float = MIN_SALIENCE) -> list:
     """Up to ``budget`` features among the traced cubics wholly on smooth faces and not ``chosen`` and the
     hollows' rings, by salience (closed ones only unless ``open_features``). Contour curves are never features:
     they are the outline's. A hollow's ring is moved out from behind the superquadrics ``over`` and the
@@ -780,7 +783,7 @@ def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bo
                 f.points, f.cubics = f.points + (moved[0, 0] - f.cubics[0, 0]), moved
             seen.append(f)
         scored = seen
-    return choose_features(scored, budget, 2.0 * ev.grid.voxel, open_features)
+    return choose_features(scored, budget, 2.0 * ev.grid.voxel, open_features, min_salience)
 
 
 def outline_pixel_ids(cand: Candidates, sq, frame, reach: int = 1, occluder=None, hull=None) -> np.ndarray:

@@ -63,6 +63,8 @@ MIN_STEP = 0.15
 #: outline's (one side the background) — shading where a light's clamp meets its cosine, fixed on the
 #: surface — which as features cost it 0.011 of line precision; after it, none.
 RAMP = 0.75
+#: What a line darker than both its sides (:func:`albedo_steps`) counts as a step.
+LINE_WEIGHT = 1.0
 #: A feature going this far round (:func:`closure`) is drawn as a closed loop (:func:`feature_cubics`).
 CLOSE_LOOP = 0.6
 #: A feature is taken only while at least this share of it is not drawn yet (see :func:`choose_features`).
@@ -225,10 +227,20 @@ def albedo_steps(controls: np.ndarray, cameras: list, images: list[np.ndarray], 
         # both sides on the object, a pixel beyond the offset too (the outline's antialiasing)
         ahead_in, behind_in = _sides(mask.astype(np.float32), at, across, offset_px + 1, order=0)
         on = (ahead_in > 0.5) & (behind_in > 0.5)
-        step = np.abs(np.subtract(*_sides(gray, at, across, offset_px)))[on]
-        wide = np.abs(np.subtract(*_sides(gray, at, across, 2 * offset_px)))[on]
+        near_a, near_b = _sides(gray, at, across, offset_px)
+        far_a, far_b = _sides(gray, at, across, 2 * offset_px)
+        step, wide = np.abs(near_a - near_b)[on], np.abs(far_a - far_b)[on]
         # a step is as high two offsets out as one; a slope (shading) twice as high: count a step's height only
         step = np.where(step >= RAMP * wide, step, 0.0)
+        # a line (a seam, a painted stroke, the gap between two teeth) is darker than both its sides, which are
+        # alike: its darkest pixel within a pixel of the curve against the lighter side's, when as dark two
+        # offsets out (a broad trough of shading is darker still farther out)
+        centre = np.min([ndimage.map_coordinates(gray, [(at + d * across)[:, 1] - 0.5, (at + d * across)[:, 0] - 0.5],
+                                                 order=1, mode="nearest") for d in (-1.0, -0.5, 0.0, 0.5, 1.0)], 0)[on]
+        line = np.minimum(near_a, near_b)[on] - centre
+        line_wide = np.minimum(far_a, far_b)[on] - centre
+        line = np.where((line > 0) & (line >= RAMP * line_wide), line, 0.0)
+        step = np.maximum(step, LINE_WEIGHT * line)
         who = owner[seen][on]
         for k in np.unique(who):
             steps[k].append(step[who == k])
@@ -301,9 +313,9 @@ def _pair_up(features: list[Feature], size: float, grid, occupied: np.ndarray, r
                     features[a].paired = features[b].paired = True
 
 
-def choose_features(features: list[Feature], budget: int, reach: float, open_features: bool = True
-                    ) -> list[Feature]:
-    """The most salient ``features`` first, up to ``budget``, down to :data:`MIN_SALIENCE`, of at least
+def choose_features(features: list[Feature], budget: int, reach: float, open_features: bool = True,
+                    min_salience: float = MIN_SALIENCE) -> list[Feature]:
+    """The most salient ``features`` first, up to ``budget``, down to ``min_salience``, of at least
     :data:`MIN_CONTRAST` and :data:`MIN_STEP`, each while at
     least :data:`MIN_NOVELTY` of its samples lie farther than ``reach`` from the features taken before it.
     Rings (going round at least :data:`CLOSE_LOOP`) come first; open marks only with ``open_features`` and
@@ -320,7 +332,7 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
     for f in sorted(rings, key=lambda f: -f.salience) + sorted(marks, key=lambda f: -f.salience):
         if len(taken) >= budget:
             break
-        if f.salience < MIN_SALIENCE or f.contrast < MIN_CONTRAST or f.step < MIN_STEP:
+        if f.salience < min_salience or f.contrast < MIN_CONTRAST or f.step < MIN_STEP:
             continue
         if near is not None and (near.query(f.points)[0] > reach).mean() < MIN_NOVELTY:
             continue

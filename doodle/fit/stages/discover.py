@@ -81,7 +81,8 @@ def choose_beside(state: FitState, sq: SuperquadricSet, polish: bool, log=lambda
                          whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
                          over=sq, occluder=state.occluder,
                          occlusion_margin=DrawOptions.occlusion_margin * state.frame.radius,
-                         open_features=cfg.level.open_features, log=log)
+                         open_features=cfg.level.open_features,
+                         min_salience=cfg.level.min_salience, log=log)
 
 
 def curves_beside(state: FitState, sq: SuperquadricSet) -> tuple[CurveSet, np.ndarray]:
