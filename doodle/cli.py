@@ -31,8 +31,8 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 
 
 #: ``doodle --help`` lists the commands in the order a user meets them.
-COMMAND_ORDER = ("demo", "sample", "masks", "fit", "info", "export", "animate", "view", "batch", "styles", "eval", "convert",
-                 "export3d", "blender-addon")
+COMMAND_ORDER = ("demo", "sample", "masks", "fit", "info", "export", "animate", "view", "batch", "styles", "eval",
+                 "convert", "export3d", "blender-addon")
 
 
 class DoodleGroup(click.Group):
@@ -640,7 +640,7 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
 
     from .atomic import check_writable
     from .scenes import load_scene_at_size
-    from .scenes.automask import auto_masks, saved_masks, with_masks, write_masks
+    from .scenes.automask import agreement, auto_masks, saved_masks, with_masks, write_masks
 
     out_dir = out_dir or Path(scene_dir) / "doodle-masks"
     if sheet is not None:
@@ -657,18 +657,16 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
     click.echo(f"wrote {len(made)} masks to {out_dir}: the object covers "
                f"{100 * float(np.mean([m.mean() for m in made])):.0f}% of the image on average")
     if truth is not None:
-        ious = [float((a & b).sum() / max((a | b).sum(), 1)) for a, b in zip(made, truth)]
+        ious = agreement(made, truth)
         worst = int(np.argmin(ious))
         click.echo(f"IoU with the true masks: mean {np.mean(ious):.3f}, worst {ious[worst]:.3f} "
                    f"({scene.cameras[worst].name})")
     if sheet is not None:
         from .atomic import atomic_path
-        from .exporters.raster import contact_sheet, mask_overlay
+        from .exporters.raster import masks_sheet
 
         with atomic_path(sheet) as tmp:
-            cell = min(256, max(max(m.shape) for m in made))
-            contact_sheet([mask_overlay(img, m) for img, m in zip(scene.images, made)], cell=cell,
-                          labels=[c.name for c in scene.cameras]).save(tmp, format="PNG")
+            masks_sheet(scene.images, made, [c.name for c in scene.cameras]).save(tmp, format="PNG")
         click.echo(f"wrote {sheet}")
 
 

@@ -67,6 +67,13 @@ def mask_overlay(image: np.ndarray, mask: np.ndarray) -> Image.Image:
     return Image.fromarray(rgb)
 
 
+def masks_sheet(images: list[np.ndarray], masks: list[np.ndarray], names: list[str]) -> Image.Image:
+    """A contact sheet of the photos with their masks (:func:`mask_overlay`), labelled with the views' names,
+    in cells of at most 256 px (never enlarged)."""
+    cell = min(256, max(max(m.shape) for m in masks))
+    return contact_sheet([mask_overlay(img, m) for img, m in zip(images, masks)], cell=cell, labels=names)
+
+
 def ink_paths(img: np.ndarray, ops) -> np.ndarray:
     """Rasterise drawn paths (1 px, in place) into a view's ``bool (H, W)`` image."""
     H, W = img.shape

@@ -55,7 +55,7 @@ MIN_AGREEMENT = 0.7
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 
-__all__ = ["MARKER", "ObjectRegion", "auto_masks", "check_masks", "fingerprint", "object_region", "saved_masks",
+__all__ = ["MARKER", "ObjectRegion", "agreement", "auto_masks", "check_masks", "fingerprint", "object_region", "saved_masks",
            "with_masks", "write_masks"]
 
 

@@ -131,5 +131,6 @@ def shadow(cam: Camera, hull: VoxelHull, shape: tuple[int, int]) -> np.ndarray:
 
 
 def agreement(masks: list[np.ndarray], shadows: list[np.ndarray]) -> np.ndarray:
-    """Per view, the IoU of its mask with the hull's projection: how much the other views agree with it."""
+    """Per view, the IoU of its mask with ``shadows``'s: with the hull's projection, how much the other views
+    agree with it; with true masks, how right it is."""
     return np.array([(m & s).sum() / max((m | s).sum(), 1) for m, s in zip(masks, shadows)])
