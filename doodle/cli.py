@@ -579,8 +579,9 @@ def fit_options(command: Callable) -> Callable:
               help="Stroke file to write (.doodle JSON, .doodleb binary).")
 @click.option("--split", default="train", show_default=True, help="Dataset split to fit (NeRF-synthetic).")
 @click.option("--masks", default="auto", show_default=True, metavar="auto|none|DIR",
-              help="Object masks: the scene's own, else made from the photos and saved to SCENE/doodle-masks "
-                   "(auto); none; or a folder with NAME.png per view.")
+              help="Object masks: the scene's own, else those in SCENE/doodle-masks (made for these photos, or "
+                   "fixed by hand), else made from the photos and saved there (auto); none; or a folder with "
+                   "NAME.png per view.")
 @click.option("--resume", is_flag=True, help="Continue from OUT.ckpt, written after every stage.")
 @fit_options
 def fit(scene_dir: Path, out_path: Path, split: str, masks: str, resume: bool, **options: Any) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -121,7 +122,16 @@ def test_fingerprint_follows_options_and_scene_files(tmp_path):
     assert fp == fingerprint(tmp_path / "s", dict(opts))
     assert fp != fingerprint(tmp_path / "s", {**opts, "views": 7})
     (tmp_path / "s" / "doodle-masks").mkdir()
-    (tmp_path / "s" / "doodle-masks" / "a.png").write_bytes(b"m")  # masks doodle made: not an edit
+    (tmp_path / "s" / "doodle-masks" / "a.png").write_bytes(b"m")
+    (tmp_path / "s" / "doodle-masks" / "doodle-masks.json").write_text("{}")  # masks doodle made: not an edit
+    assert fp == fingerprint(tmp_path / "s", opts)
+    # a mask fixed by hand (saved after the marker) is an edit, as is a folder without the marker
+    os.utime(tmp_path / "s" / "doodle-masks" / "a.png", (time.time() + 5, time.time() + 5))
+    hand = fingerprint(tmp_path / "s", opts)
+    assert hand != fp
+    (tmp_path / "s" / "doodle-masks" / "doodle-masks.json").unlink()
+    assert fingerprint(tmp_path / "s", opts) not in (fp, hand)
+    shutil.rmtree(tmp_path / "s" / "doodle-masks")
     assert fp == fingerprint(tmp_path / "s", opts)
     (tmp_path / "s" / "a.png").write_bytes(b"xy")
     assert fp != fingerprint(tmp_path / "s", opts)

@@ -40,13 +40,17 @@ class Task:
 
 def scene_signature(scene: Path) -> list[list[Any]]:
     """Names, sizes and modification times of the scene's files two levels deep (its own ``doodle-masks``
-    left out: ``masks = "auto"`` writes them there), so an edited scene is made again on a rerun."""
+    left out, which ``masks = "auto"`` writes, unless they were fixed by hand), so an edited scene is made
+    again on a rerun."""
+    from ..scenes.automask import fixed_by_hand
+
     rows: list[list[Any]] = []
     if not scene.is_dir():
         return rows
+    hand = fixed_by_hand(scene / "doodle-masks")
     for level in (scene.glob("*"), scene.glob("*/*")):
         for f in level:
-            if f.is_file() and "doodle-masks" not in f.relative_to(scene).parts:
+            if f.is_file() and (hand or "doodle-masks" not in f.relative_to(scene).parts):
                 st = f.stat()
                 rows.append([f.relative_to(scene).as_posix(), st.st_size, st.st_mtime_ns])
     return sorted(rows)

@@ -55,7 +55,7 @@ MIN_AGREEMENT = 0.7
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 
-__all__ = ["MARKER", "ObjectRegion", "agreement", "auto_masks", "check_masks", "fingerprint", "object_region", "saved_masks",
+__all__ = ["MARKER", "ObjectRegion", "agreement", "auto_masks", "check_masks", "fingerprint", "fixed_by_hand", "object_region", "saved_masks",
            "with_masks", "write_masks"]
 
 
@@ -221,6 +221,18 @@ def write_masks(scene: Scene, masks: list[np.ndarray], folder: Path) -> Path:
     return folder
 
 
+def _mask_files(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg")] if folder.is_dir() else []
+
+
+def fixed_by_hand(folder: Path) -> bool:
+    """Whether ``folder`` holds masks fixed by hand: masks without the :data:`MARKER`, or one saved after it
+    (the marker left in place). Such masks are read as they are and never made again over."""
+    files = _mask_files(folder)
+    marker = folder / MARKER
+    return bool(files) and (not marker.is_file() or max(p.stat().st_mtime for p in files) > marker.stat().st_mtime + 1.0)
+
+
 def saved_masks(scene: Scene, folder: Path) -> tuple[list[np.ndarray], bool] | None:
     """The masks saved in ``folder`` for ``scene``, and whether they are automatic; ``None`` when there are none
     to use: no folder, a mask missing, or automatic masks made from other views (:func:`fingerprint`). Masks
@@ -231,16 +243,12 @@ def saved_masks(scene: Scene, folder: Path) -> tuple[list[np.ndarray], bool] | N
     """
     from ..images import read_mask_folder
 
-    marker = folder / MARKER
-    files = [p for p in folder.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg")] if folder.is_dir() else []
-    if not files:
+    if not _mask_files(folder):
         return None
-    # a mask saved after the marker was edited by hand (the marker left in place): never made again over it
-    edited = marker.is_file() and max(p.stat().st_mtime for p in files) > marker.stat().st_mtime + 1.0
-    automatic = marker.is_file() and not edited
+    automatic = not fixed_by_hand(folder)
     if automatic:
         try:
-            made_from = json.loads(marker.read_text()).get("views")
+            made_from = json.loads((folder / MARKER).read_text()).get("views")
         except (OSError, ValueError, AttributeError):
             return None
         if made_from != fingerprint(scene):
@@ -286,7 +294,8 @@ def with_masks(scene: Scene, how: str | Path = "auto", auto_dir: Path | None = N
     if auto_dir is not None:
         try:
             write_masks(scene, masks, auto_dir)
-            log(f"automatic masks written to {auto_dir} (fix any and pass --masks {auto_dir})")
+            log(f"automatic masks written to {auto_dir} (later fits read them; `doodle masks --sheet` draws them "
+                "over the photos; fix any by hand)")
         except OSError as exc:
             log(f"warning: cannot write the automatic masks to {auto_dir} ({exc.strerror or exc})")
     return replace(scene, masks=masks, masks_automatic=True)
