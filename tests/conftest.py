@@ -17,12 +17,6 @@ if "PYTEST_XDIST_WORKER_COUNT" in os.environ:
         os.environ.setdefault(_var, _threads)
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The heavy tests first: xdist hands out tests in order, and the quick start (three fits, a minute)
-    collected near the end kept one worker busy while the other had nothing left."""
-    items.sort(key=lambda item: item.get_closest_marker("heavy") is None)
-
-
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 LEGO = SHARED_DATA / "nerf_synthetic" / "lego"
 

@@ -459,7 +459,6 @@ class TestCli:
         assert r.exit_code == 2 and "auto" in r.output
 
 
-@pytest.mark.heavy
 def test_demo_short(tmp_path):
     """The demo end to end on a small snowman (12 views at 128 px), the default fit: every file it promises,
     and a sketch that draws the held-out views (measured F 0.998 at this size)."""

@@ -247,7 +247,6 @@ def test_bench_fit_settings_parse_and_refuse_unknown_fields():
             setting(bad)
 
 
-@pytest.mark.heavy
 def test_kill_9_during_export_leaves_the_folder_old_or_new(tmp_path):
     bench = _bench("bench_kill")
     write_strokes(tmp_path / "s.doodle", random_strokes(0, 24, 6))

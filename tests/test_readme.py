@@ -31,7 +31,6 @@ def test_readme_links_resolve():
 
 
 @pytest.mark.timeout(600)
-@pytest.mark.heavy
 def test_quick_start_runs_as_written(tmp_path):
     """Every command of the quick start, in order, in an empty folder: each exits 0 and writes what it says.
     The sample scene is made smaller than the quick start's (12 views at 128 px) and the fits' grids with it
