@@ -641,7 +641,7 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
 
     from .atomic import check_writable
     from .scenes import load_scene_at_size
-    from .scenes.automask import agreement, auto_masks, saved_masks, with_masks, write_masks
+    from .scenes.automask import agreement, auto_masks, fixed_by_hand, with_masks, write_masks
 
     out_dir = out_dir or Path(scene_dir) / "doodle-masks"
     if sheet is not None:
@@ -649,10 +649,9 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
     scene = load_scene_at_size(scene_dir, split, size)
     _log(f"loaded {len(scene)} views from {scene_dir}")
     truth = with_masks(scene, truth_dir, log=_log).masks if truth_dir is not None else scene.masks
-    bare = replace(scene, masks=None, masks_automatic=False)
-    saved = saved_masks(bare, out_dir)
-    if saved is not None and not saved[1]:
+    if fixed_by_hand(out_dir):
         raise UserError(f"{out_dir}: holds masks fixed by hand; give another folder with -o (or delete it)")
+    bare = replace(scene, masks=None, masks_automatic=False)
     made = auto_masks(bare, _log)
     write_masks(bare, made, out_dir)
     click.echo(f"wrote {len(made)} masks to {out_dir}: the object covers "

@@ -35,7 +35,7 @@ from .facing import curve_normals
 from .hollows import Hollow, clear_of, find_hollows
 from .ridges import _bridge, link_ridges, ridge_points
 from .rims import CONTOUR_GATES, Rims, find_rims
-from .salience import MIN_SALIENCE
+from .salience import MIN_SALIENCE, albedo_steps, choose_features, duplicates, feature_cubics, score_features
 from .sightlines import seen_through
 from .texture import SMOOTH_SHARE, on_smooth_faces, smooth_shares
 
@@ -530,8 +530,6 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
     seconds["sight lines"] = time.perf_counter() - t
     steps = None
     if smooth is not None and smooth.any():  # paint or shading? the images' step across each (salience.py)
-        from .salience import albedo_steps
-
         steps = np.zeros(len(controls))
         views = spread_indices(len(ev.cameras), STEP_VIEWS)
         steps[smooth] = albedo_steps(controls[smooth], [ev.cameras[v] for v in views],
@@ -699,8 +697,6 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
     painted_controls = np.zeros((0, 4, 3))
     if features > 0 and cand.traces is not None and cand.traces.shares is not None and (
             cand.smooth.any() or cand.traces.hollows):
-        from .salience import duplicates, feature_cubics
-
         painted = _salient(cand, chosen, features, open_features, over, occluder, occlusion_margin, min_salience)
         if painted:
             drawings = [feature_cubics(f, cand.controls, TOLERANCE_VOXELS * h) for f in painted]
@@ -760,8 +756,6 @@ def _salient(cand: Candidates, chosen: list[int], budget: int, open_features: bo
     hollows' rings, by salience (closed ones only unless ``open_features``). Contour curves are never features:
     they are the outline's. A hollow's ring is moved out from behind the superquadrics ``over`` and the
     ``occluder`` first, or left out when no view would see it (:func:`.hollows.clear_of`)."""
-    from .salience import choose_features, score_features
-
     ev, traces = cand.evidence, cand.traces
     # wholly on a smooth face, as paint is: a ring round a leg's top, half on a crease, is a junction of parts
     is_feature = traces.shares >= PAINT_SHARE

@@ -235,8 +235,7 @@ def albedo_steps(controls: np.ndarray, cameras: list, images: list[np.ndarray], 
         # a line (a seam, a painted stroke, the gap between two teeth) is darker than both its sides, which are
         # alike: its darkest pixel within a pixel of the curve against the lighter side's, when as dark two
         # offsets out (a broad trough of shading is darker still farther out)
-        centre = np.min([ndimage.map_coordinates(gray, [(at + d * across)[:, 1] - 0.5, (at + d * across)[:, 0] - 0.5],
-                                                 order=1, mode="nearest") for d in (-1.0, -0.5, 0.0, 0.5, 1.0)], 0)[on]
+        centre = np.min([side for d in (0.0, 0.5, 1.0) for side in _sides(gray, at, across, d)], 0)[on]
         line = np.minimum(near_a, near_b)[on] - centre
         line_wide = np.minimum(far_a, far_b)[on] - centre
         line = np.where((line > 0) & (line >= RAMP * line_wide), line, 0.0)

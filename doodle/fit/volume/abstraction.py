@@ -381,8 +381,8 @@ def _fit_parts(masks: list[np.ndarray], thick: np.ndarray, covered: np.ndarray, 
     """One superquadric for each part in ``masks`` (:class:`_Part`), fitted at once: each part's starts are rows
     of one optimisation (its points padded to the longest part's with zero weight), each part with its own
     learning rates, so the fits are each part's own at the cost of one (a part and the part merged with its
-    neighbour, in :meth:`_PartTaker.parts_of`). Returns, per part, its superquadric, its IoU with the part and
-    its :meth:`_Part.deformed`."""
+    neighbour, in :meth:`_PartTaker.parts_of`). Returns, per part, what :meth:`_Part.chosen` gives: its
+    superquadric, its IoU with the part and the function that fits it again tapered and bent."""
     parts = [_Part.of(m, thick, covered, care, origin, voxel, axes, grow, rng) for m in masks]
     n = max(len(p.target) for p in parts)
     P = torch.stack([torch.cat([p.points, p.points[:1].expand(n - len(p.points), 3)]) for p in parts for _ in STARTS])

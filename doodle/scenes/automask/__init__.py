@@ -55,8 +55,8 @@ MIN_AGREEMENT = 0.7
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 
-__all__ = ["MARKER", "ObjectRegion", "agreement", "auto_masks", "check_masks", "fingerprint", "fixed_by_hand", "object_region", "saved_masks",
-           "with_masks", "write_masks"]
+__all__ = ["MARKER", "ObjectRegion", "agreement", "auto_masks", "check_masks", "fingerprint", "fixed_by_hand",
+           "object_region", "saved_masks", "with_masks", "write_masks"]
 
 
 def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
