@@ -215,18 +215,19 @@ def test_a_bent_part_hides_its_own_contour_behind_its_bend():
     assert inner[uv[:, 1].astype(int), uv[:, 0].astype(int)].all()
 
 
-def test_a_smooth_deformed_part_draws_its_outline_beside_crisp_curves_and_a_boxy_one_does_not():
-    """The judge's rule: crisp curves that already draw an outline keep it, unless the superquadric is tapered
-    or bent, smooth, and on the lines almost everywhere (a spout's closed outline beats two open lines)."""
+def test_a_smooth_deformed_part_or_a_round_one_draws_its_outline_beside_crisp_curves_and_a_boxy_one_does_not():
+    """The judge's rule: crisp curves that already draw an outline keep it, unless the superquadric is smooth
+    and tapered or bent, or plain and round as an ellipsoid, and its outline is on the lines almost everywhere
+    (a spout's or a foot's closed outline beats the open lines along it)."""
     from doodle.fit.volume.outlines import _drawn
 
-    sq = SuperquadricSet(np.full((4, 3), 0.3), np.array([[0.8, 1.0], [0.8, 1.0], [1.0, 0.2], [0.8, 1.0]]),
-                         np.tile([1.0, 0, 0, 0], (4, 1)), np.zeros((4, 3)),
-                         taper=np.array([[-0.6, -0.6], [0.0, 0.0], [-0.6, -0.6], [-0.6, -0.6]]))
-    precision = np.array([0.95, 0.95, 0.95, 0.8])
-    on_curves = np.full(4, 0.9)  # the crisp curves draw each one's outline
-    assert _drawn(sq, precision, on_curves).tolist() == [True, False, False, False]
-    assert _drawn(sq, precision, np.zeros(4)).tolist() == [True, True, True, True]
+    shapes = np.array([[0.8, 1.0], [0.6, 1.0], [1.0, 0.2], [0.8, 1.0], [0.9, 1.0], [0.9, 1.0]])
+    taper = np.array([[-0.6, -0.6], [0.0, 0.0], [-0.6, -0.6], [-0.6, -0.6], [0.0, 0.0], [0.0, 0.0]])
+    sq = SuperquadricSet(np.full((6, 3), 0.3), shapes, np.tile([1.0, 0, 0, 0], (6, 1)), np.zeros((6, 3)), taper=taper)
+    precision = np.array([0.95, 0.95, 0.95, 0.8, 0.95, 0.8])
+    on_curves = np.full(6, 0.9)  # the crisp curves draw each one's outline
+    assert _drawn(sq, precision, on_curves).tolist() == [True, False, False, False, True, False]
+    assert _drawn(sq, precision, np.zeros(6)).tolist() == [True] * 6
 
 
 def test_a_checkpoint_keeps_tapers_and_bends_and_reads_one_from_before_them():

@@ -144,6 +144,10 @@ MAX_OUTLINE_ON_CURVES = 0.75
 DEFORMED_MIN_PRECISION = 0.9
 #: Both shape exponents at least this: a superquadric without edges of its own (0.1 is a box's, 1 a ball's).
 SMOOTH_SHAPE = 0.5
+#: ...and a plain one this round in both profiles, an ellipsoid more than a rounded box, draws its outline on
+#: the same terms (see ``_drawn``): Cheburashka's feet, whose outline the traced curves drew as ticks (held-out
+#: F 0.907 → 0.923), but not a rounded piece of a hex nut (ε 0.98, 0.59), whose edges the curves draw.
+ROUND_SHAPE = 0.75
 
 
 def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
@@ -177,7 +181,7 @@ def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame
     for i in np.flatnonzero(precision < ABSTRACT_MIN_PRECISION):
         log(f"superquadrics: one hides what is behind it but draws no outline (only {precision[i]:.0%} "
             "of its outline lies on the object's lines)")
-    for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION)):
+    for i in np.flatnonzero((on_curves >= MAX_OUTLINE_ON_CURVES) & (precision >= ABSTRACT_MIN_PRECISION) & ~drawn):
         log(f"superquadrics: one hides what is behind it but draws no outline (the feature curves draw "
             f"{on_curves[i]:.0%} of it)")
     return replace(sq, outline=drawn)
@@ -186,13 +190,17 @@ def abstraction_outlines(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame
 def _drawn(sq: SuperquadricSet, precision: np.ndarray, on_curves: np.ndarray) -> np.ndarray:
     """Whose outline the abstraction draws, from :func:`_outline_scores`: one on the object's lines that the
     crisp curves do not already draw, or a smooth (both ε at least :data:`SMOOTH_SHAPE`), tapered or bent one
-    whose outline lies on the lines almost everywhere (:data:`DEFORMED_MIN_PRECISION`) — a spout's or a
-    horn's closed outline in one piece beats the two lines along its sides, which leave its end open; a
-    box-like one has edges of its own that the crisp curves draw better (a lamp's base: F 0.922 → 0.909 when
-    its rounded outline replaced them)."""
+    — or a plain one as round as an ellipsoid (:data:`ROUND_SHAPE`) — whose outline lies on the lines almost
+    everywhere (:data:`DEFORMED_MIN_PRECISION`): a spout's, a horn's or a foot's closed outline in one piece
+    beats the lines traced along its sides, which leave its end open and read as ticks; a box-like one has
+    edges of its own that the crisp curves draw better (a lamp's base: F 0.922 → 0.909 when its rounded
+    outline replaced them)."""
     drawn = (precision >= ABSTRACT_MIN_PRECISION) & (on_curves < MAX_OUTLINE_ON_CURVES)
-    smooth = sq.shape.min(axis=1) >= SMOOTH_SHAPE if len(sq) else np.zeros(0, bool)
-    return drawn | (sq.deformed & smooth & (precision >= DEFORMED_MIN_PRECISION))
+    if not len(sq):
+        return drawn
+    roundness = sq.shape.min(axis=1)
+    smooth = np.where(sq.deformed, roundness >= SMOOTH_SHAPE, roundness >= ROUND_SHAPE)
+    return drawn | (smooth & (precision >= DEFORMED_MIN_PRECISION))
 
 
 def _outline_scores(sq: SuperquadricSet, crisp: CurveSet, frame: SceneFrame, cameras: list[Camera],
