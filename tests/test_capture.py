@@ -265,6 +265,12 @@ def test_the_support_is_the_plane_with_nothing_under_it_and_not_a_base_plate():
     # a base plate twice as wide as the object on it, framed by every photo (Lego's): part of the object
     plate = np.c_[rng.uniform(-0.6, 0.6, (400, 2)), np.full(400, -1.0)]
     assert support_plane(np.r_[plate, obj * 0.6], cams, np.zeros(3), radius=1.0) is None
+    # a smooth object that gave 8 points, and 4 chance matches of the carpet just above it far apart: the
+    # floor is still the support (the 90th percentile of their spread took it for the object's base)
+    few = rng.normal(0, 0.15, (8, 3))
+    chance = np.c_[1.9 * np.array([[1, 0], [0, 1], [-1, 0], [0, -1]]), np.full(4, -0.92)]
+    n, d = support_plane(np.r_[floor, few, chance], cams, np.zeros(3), radius=1.0)
+    assert np.allclose(n, [0, 0, 1], atol=1e-6) and abs(d + 1.0) < 1e-6
 
 
 def test_the_object_region_is_the_cluster_the_cameras_aim_at(capture):

@@ -120,11 +120,14 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
     above = (points @ n - d) > 3 * tol
     if above.sum() < 10:
         return n, d  # nothing stands on it but what the photos are of: a plain support seen all round
-    centre = points[above].mean(axis=0)
+    # Medians: a smooth object gives a few points, and a few chance matches of the carpet just above the plane
+    # among them spread them as wide as the floor (the carpet cow's 8 points and 4 such: 1.23 against the
+    # floor's 1.44 at the 90th percentile, 0.52 against 0.96 at the median)
+    centre = np.median(points[above], axis=0)
 
     def spread(p: np.ndarray) -> float:
         flat = (p - centre) - np.outer((p - centre) @ n, n)
-        return float(np.percentile(np.linalg.norm(flat, axis=1), 90))
+        return float(np.median(np.linalg.norm(flat, axis=1)))
 
     if spread(points[np.abs(points @ n - d) < tol]) < 1.3 * spread(points[above]):
         return None  # within the object's footprint: a base, part of the object
