@@ -37,6 +37,15 @@ def uninterrupted(snowman_dir, tmp_path_factory) -> bytes:
     return _bytes(out)
 
 
+@pytest.fixture(autouse=True)
+def _ctrl_c_reaches_python():
+    """Python's own Ctrl-C handler for each test: a suite started with SIGINT ignored (``cmd &`` in a script,
+    some CI runners) would ignore the tests' Ctrl-C, as it does a user's."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 def _ctrl_c_at(monkeypatch, stage: str) -> None:
     """Send this process a real SIGINT as ``stage`` begins (as a user's Ctrl-C would arrive)."""
     from doodle.fit import pipeline
