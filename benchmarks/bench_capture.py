@@ -88,6 +88,10 @@ def procedural_photos(name: str, floor: str, photos: Path, truth: Path, work: Pa
     shutil.rmtree(cap)
 
 
+class CaptureFailed(Exception):
+    """``doodle fit`` refused a capture (its one-line error): reported, and the other captures still run."""
+
+
 def fit_timed(cmd: list[str]) -> tuple[dict[str, float], list[str]]:
     """Run ``doodle fit``; the seconds at which SfM, the automatic masks and the fit ended (from its log)."""
     t0 = time.perf_counter()
@@ -101,7 +105,8 @@ def fit_timed(cmd: list[str]) -> tuple[dict[str, float], list[str]]:
         if line.startswith("automatic masks written"):
             marks["masks"] = now
     if p.wait() != 0:
-        sys.exit(f"{' '.join(cmd)} failed:\n" + "\n".join(lines[-20:]))
+        raise CaptureFailed(next((ln for ln in reversed(lines) if ln.startswith("Error:")), lines[-1] if lines else
+                                 f"exit {p.returncode}"))
     marks["total"] = time.perf_counter() - t0
     return marks, lines
 
@@ -220,13 +225,20 @@ def main() -> None:
     if unknown:
         sys.exit(f"unknown capture {unknown[0]!r}")
     root = args.keep or Path(tempfile.mkdtemp(prefix="doodle-bench-capture-"))
+    failed = []
     for name in names:
         work = root / name
         shutil.rmtree(work, ignore_errors=True)
-        report = bench(name, work, args.keep is not None, args.held_out)
+        try:
+            report = bench(name, work, args.keep is not None, args.held_out)
+        except CaptureFailed as exc:
+            failed.append(name)
+            report = f"{name:14s} failed: {exc}"
         print(report if report is not None else f"{name:14s} skipped: {DATA} not found", flush=True)
     if args.keep is None:
         shutil.rmtree(root, ignore_errors=True)
+    if failed:
+        sys.exit(f"{len(failed)} of {len(names)} captures failed: {', '.join(failed)}")
 
 
 if __name__ == "__main__":
