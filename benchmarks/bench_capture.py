@@ -14,7 +14,9 @@ in the fit (from the moments its log lines arrive), the automatic masks' IoU wit
 the mean) and ``doodle eval`` of the sketch against the true masks on the photos (silhouette recall bar 0.8).
 With ``--keep DIR`` it keeps everything and draws ``DIR/NAME/sheet.png``: four photos, their automatic masks and
 the sketch from the same cameras. ``--held-out`` also fits again without every 8th registered photo (same
-poses and masks) and scores those photos. Captures needing ``../shared/data`` skip cleanly without it.
+poses and masks) and scores those photos. Captures needing ``../shared/data`` skip cleanly without it; a
+capture ``doodle fit`` refuses (SfM placing none of its photos) prints its one-line error and the others still
+run (exit 1 at the end).
 
 Run: ``python benchmarks/bench_capture.py [--captures dtu,carpet-cow] [--keep DIR] [--held-out]``.
 """
