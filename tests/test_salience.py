@@ -94,6 +94,18 @@ class TestChoice:
         b = _feature(_ring(0.1) + 0.001, 0.05, 1.0, contrast=0.4)
         assert choose_features([a, b], budget=5, reach=0.01) == [a]
 
+    def test_a_ring_crossing_one_taken_is_not_taken_but_a_ring_inside_one_is(self):
+        """Crossing rings read as a scribble (a checkered ball's dark squares seen as overlapping dark regions);
+        a pupil inside an eye, or rings apart, are drawn each."""
+        eye = _feature(_ring(0.1), 0.05, 1.0, contrast=0.8)
+        crosses = _feature(_ring(0.1, (0.12, 0.0, 0.0)), 0.05, 1.0, contrast=0.5)
+        pupil = _feature(_ring(0.03, (0.02, 0.0, 0.0)), 0.02, 1.0, contrast=0.5)
+        apart = _feature(_ring(0.1, (0.5, 0.0, 0.0)), 0.05, 1.0, contrast=0.4)
+        taken = choose_features([eye, crosses, pupil, apart], budget=5, reach=0.01)
+        assert eye in taken and pupil in taken and apart in taken and crosses not in taken
+        # alone, the crossing ring is drawn: only a ring taken before it bars it
+        assert choose_features([crosses], budget=5, reach=0.01) == [crosses]
+
     def test_curves_along_a_feature_give_way_to_it(self):
         f = _feature(_ring(0.1), 0.05, 1.0)
         along = fit_cubics_many([_ring(0.1, stop=math.pi)], 0.001)[0]

@@ -69,6 +69,10 @@ LINE_WEIGHT = 1.0
 CLOSE_LOOP = 0.6
 #: A feature is taken only while at least this share of it is not drawn yet (see :func:`choose_features`).
 MIN_NOVELTY = 0.5
+#: Two rings cross (neither holds the other, and they are not apart) when their centres lie farther apart than
+#: the difference of their radii plus this share of the smaller radius, and nearer than this share of the sum
+#: of their radii (see :func:`crossing`).
+CROSS_MARGIN = 0.1
 #: Least salience of a feature: a patch as large as a third of the object is not drawn.
 MIN_SALIENCE = 0.01
 #: Least contrast (mean evidence: the share of the views that see it as a line) of a feature. Paint stays
@@ -317,8 +321,8 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
     """The most salient ``features`` first, up to ``budget``, down to ``min_salience``, of at least
     :data:`MIN_CONTRAST` and :data:`MIN_STEP`, each while at
     least :data:`MIN_NOVELTY` of its samples lie farther than ``reach`` from the features taken before it.
-    Rings (going round at least :data:`CLOSE_LOOP`) come first; open marks only with ``open_features`` and
-    after every ring (on an object without paint, the open marks left on smooth faces are shading and
+    Rings (going round at least :data:`CLOSE_LOOP`) come first, none crossing a ring taken before it
+    (:func:`crossing`); open marks only with ``open_features`` and after every ring (on an object without paint, the open marks left on smooth faces are shading and
     fragments, and cost precision; on a painted one they are the secondary lines).
     Structural curves do not bar a feature: where one runs along it (a rough trace of an eye taken for the
     pixels it explains), the feature is the better drawing and the curve gives way (:func:`duplicates`)."""
@@ -335,9 +339,23 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
             continue
         if near is not None and (near.query(f.points)[0] > reach).mean() < MIN_NOVELTY:
             continue
+        if f.closed >= CLOSE_LOOP and any(crossing(f, t) for t in taken if t.closed >= CLOSE_LOOP):
+            continue
         taken.append(f)
         near = cKDTree(np.concatenate([t.points for t in taken]))
     return taken
+
+
+def crossing(a: Feature, b: Feature) -> bool:
+    """Whether rings ``a`` and ``b`` cross: neither holds the other (a pupil in an eye, a button in its well
+    are drawn both) and they are not apart. Crossing rings read as a scribble, not as two marks: the dark
+    squares of a checkered ball, seen in noisy photos as overlapping dark regions, gave rings through one
+    another. Each ring is taken as a circle: its samples' centroid and mean distance from it."""
+    ca, cb = a.points.mean(0), b.points.mean(0)
+    ra = float(np.linalg.norm(a.points - ca, axis=1).mean())
+    rb = float(np.linalg.norm(b.points - cb, axis=1).mean())
+    d = float(np.linalg.norm(ca - cb))
+    return abs(ra - rb) + CROSS_MARGIN * min(ra, rb) < d < (1.0 - CROSS_MARGIN) * (ra + rb)
 
 
 def duplicates(controls: np.ndarray, features: list[Feature], reach: float, share: float = 0.6) -> np.ndarray:
