@@ -70,8 +70,8 @@ CLOSE_LOOP = 0.6
 #: A feature is taken only while at least this share of it is not drawn yet (see :func:`choose_features`).
 MIN_NOVELTY = 0.5
 #: Two rings cross (neither holds the other, and they are not apart) when their centres lie farther apart than
-#: the difference of their radii plus this share of the smaller radius, and nearer than this share of the sum
-#: of their radii (see :func:`crossing`).
+#: the difference of their radii plus this share of the smaller radius, and nearer than the sum of their radii
+#: less this share of it (see :func:`crossing`).
 CROSS_MARGIN = 0.1
 #: Least salience of a feature: a patch as large as a third of the object is not drawn.
 MIN_SALIENCE = 0.01
@@ -322,8 +322,9 @@ def choose_features(features: list[Feature], budget: int, reach: float, open_fea
     :data:`MIN_CONTRAST` and :data:`MIN_STEP`, each while at
     least :data:`MIN_NOVELTY` of its samples lie farther than ``reach`` from the features taken before it.
     Rings (going round at least :data:`CLOSE_LOOP`) come first, none crossing a ring taken before it
-    (:func:`crossing`); open marks only with ``open_features`` and after every ring (on an object without paint, the open marks left on smooth faces are shading and
-    fragments, and cost precision; on a painted one they are the secondary lines).
+    (:func:`crossing`); open marks only with ``open_features`` and after every ring (on an object without
+    paint, the open marks left on smooth faces are shading and fragments, and cost precision; on a painted one
+    they are the secondary lines).
     Structural curves do not bar a feature: where one runs along it (a rough trace of an eye taken for the
     pixels it explains), the feature is the better drawing and the curve gives way (:func:`duplicates`)."""
     if budget <= 0 or not features:
