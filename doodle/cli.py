@@ -639,7 +639,7 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
 
     import numpy as np
 
-    from .atomic import check_writable
+    from .atomic import atomic_path, check_writable
     from .scenes import load_scene_at_size
     from .scenes.automask import agreement, auto_masks, fixed_by_hand, with_masks, write_masks
 
@@ -662,7 +662,6 @@ def masks(scene_dir: Path, out_dir: Path | None, split: str, size: int, sheet: P
         click.echo(f"IoU with the true masks: mean {np.mean(ious):.3f}, worst {ious[worst]:.3f} "
                    f"({scene.cameras[worst].name})")
     if sheet is not None:
-        from .atomic import atomic_path
         from .exporters.raster import masks_sheet
 
         with atomic_path(sheet) as tmp:

@@ -11,8 +11,9 @@ import pytest
 # with two threads each on two cores made a fit 29 s instead of 21 s), and so do the `doodle` subprocesses
 # the tests start. Set before torch is imported (this conftest is loaded before anything is collected).
 if "PYTEST_XDIST_WORKER_COUNT" in os.environ:
-    _cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    _threads = str(max(1, _cores // int(os.environ["PYTEST_XDIST_WORKER_COUNT"])))
+    from doodle.workers import cpu_count  # standard library only: torch is not loaded by it
+
+    _threads = str(max(1, cpu_count() // int(os.environ["PYTEST_XDIST_WORKER_COUNT"])))
     for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ.setdefault(_var, _threads)
 
