@@ -273,6 +273,30 @@ def test_the_support_is_the_plane_with_nothing_under_it_and_not_a_base_plate():
     assert np.allclose(n, [0, 0, 1], atol=1e-6) and abs(d + 1.0) < 1e-6
 
 
+def test_a_clipped_highlight_the_cut_gave_away_is_object_and_a_hole_through_the_object_is_not():
+    from doodle.scenes.automask.cut import fill_highlights
+
+    image = np.zeros((60, 90, 3), np.uint8)
+    image[:] = (120, 90, 60)  # a carpet
+    yy, xx = np.mgrid[:60, :90]
+    obj = (yy - 30) ** 2 / 28**2 + (xx - 45) ** 2 / 42**2 <= 1
+    image[obj] = (225, 215, 200)  # bone
+    highlight = (yy - 20) ** 2 + (xx - 30) ** 2 <= 36
+    image[highlight] = 255  # overexposed: no colour
+    handle = (yy - 30) ** 2 + (xx - 60) ** 2 <= 25  # a hole through the object shows the carpet
+    image[handle] = (120, 90, 60)
+    glare = (yy - 42) ** 2 + (xx - 40) ** 2 <= 16  # overexposed, but the floor cue sees the support there
+    image[glare] = 255
+    image[:, :2] = 255  # a window's glare at the photo's edge, off the object
+    cut = obj & ~highlight & ~handle & ~glare
+    floor = np.zeros(obj.shape, bool)
+    floor[glare] = True
+    out = fill_highlights(cut, image, floor)
+    assert out[highlight].all() and not out[handle].any() and not out[glare].any() and not out[:, :2].any()
+    assert (out & ~highlight == cut).all()
+    assert out[glare].sum() == 0 and fill_highlights(cut, image)[glare].all()  # without a floor cue: filled
+
+
 def test_the_object_region_is_the_cluster_the_cameras_aim_at(capture):
     """The object's points are the cluster above the support where the cameras aim; the floor's points are
     background, and so is a cluster standing well apart; a point floating alone beside the object is neither."""

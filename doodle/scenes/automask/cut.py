@@ -63,6 +63,10 @@ def point_seeds(seeds: np.ndarray, object_uv: np.ndarray, background_uv: np.ndar
 
 
 ITERS = 1
+#: A pixel whose channels average at least this (of 255) is overexposed: a highlight clipped to white.
+CLIPPED = 245
+#: A hole in a view's cut is filled when at least this share of it is overexposed (:func:`fill_highlights`).
+HIGHLIGHT_SHARE = 0.5
 BINS = 16
 """Levels per channel of the colour histograms (16³ colours)."""
 RARE = 0.2
@@ -123,6 +127,26 @@ def likely_object(image: np.ndarray, object_colours: np.ndarray, object_uv: np.n
     return np.isin(labels, touched[touched > 0])
 
 
+def fill_highlights(mask: np.ndarray, image: np.ndarray, floor: np.ndarray | None = None) -> np.ndarray:
+    """``mask`` with its holes filled where the photo is overexposed (:data:`CLIPPED` over at least
+    :data:`HIGHLIGHT_SHARE` of a hole) and the ``floor`` cue (:mod:`.floor`) sees no support.
+
+    A clipped highlight has no colour: GrabCut's colour models may give a polished cranium's white patch to the
+    background (DTU's skull photos at 512 px: holes of a fifth of the skull in three views, which carve a notch
+    into every view's hull), while a hole through an object (a mug's handle) shows the floor or what stands
+    behind, in colour. ``image`` ``(H, W, 3)`` uint8 at the mask's size."""
+    labels, n = ndimage.label(~mask)
+    if n == 0:
+        return mask
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    clipped = np.asarray(image, np.float32)[..., :3].mean(-1) >= CLIPPED
+    index = np.arange(1, n + 1)
+    share = ndimage.mean(clipped, labels, index)
+    on_floor = ndimage.mean(floor, labels, index) if floor is not None else np.zeros(n)
+    fill = index[(share >= HIGHLIGHT_SHARE) & (on_floor < 0.5) & ~np.isin(index, border)]
+    return mask | np.isin(labels, fill) if len(fill) else mask
+
+
 def hull_cut(image: np.ndarray, shadow: np.ndarray, object_uv: np.ndarray, background_uv: np.ndarray,
              band: float, floor: np.ndarray | None = None, off_floor: np.ndarray | None = None) -> np.ndarray:
     """A view's cut seeded by the consistency hull's projection ``shadow`` (probably object), a band of
@@ -138,4 +162,5 @@ def hull_cut(image: np.ndarray, shadow: np.ndarray, object_uv: np.ndarray, backg
         seeds[floor & ~ndimage.binary_erosion(shadow, disc(band))] = cv2.GC_BGD
     if off_floor is not None:
         seeds[off_floor & shadow] = cv2.GC_FGD
-    return grabcut(image, point_seeds(seeds, object_uv, background_uv), ITERS) & near
+    cut = grabcut(image, point_seeds(seeds, object_uv, background_uv), ITERS) & near
+    return fill_highlights(cut, image, floor)
