@@ -39,7 +39,14 @@ from PIL import Image
 
 from ...errors import SceneError
 from ..scene import Scene
-from .cut import colour_bins, histogram, hull_cut, likely_object
+from .cut import (
+    background_like,
+    colour_bins,
+    histogram,
+    hull_cut,
+    likely_object,
+    view_background,
+)
 from .floor import blurred, floor_error, floor_pixels
 from .hull import FIRST_AGREE, agreement, carve, reach_mask, shadow
 from .region import PLANE_TOL, ObjectRegion, in_view, object_region
@@ -52,6 +59,10 @@ MAX_COVER = 0.75
 surroundings."""
 MIN_AGREEMENT = 0.7
 """Masks whose median IoU with the hull's projection is under this disagree between views: no one object."""
+REVISION = 2
+"""Of how masks are made: part of every saved folder's :func:`fingerprint`, raised when a change makes other
+masks from the same photos (2: overexposed holes filled, a textured floor's colours cut from the hull's chunk),
+so a fit after an upgrade makes them anew instead of reading the last release's."""
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 
@@ -66,16 +77,15 @@ def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.asarray(Image.fromarray(a).resize(size, Image.Resampling.BOX))
 
 
-_BLURRED: dict[int, list[np.ndarray]] = {}
+_BLURRED: list = [None, []]  # the list of images last blurred (held, so its id is not reused) and its blur
 
 
 def _blurred(images: list[np.ndarray]) -> list[np.ndarray]:
-    """The views' blurred colours (:func:`~.floor.blurred`), made once per list of images."""
-    key = id(images)
-    if key not in _BLURRED:
-        _BLURRED.clear()
-        _BLURRED[key] = [blurred(img) for img in images]
-    return _BLURRED[key]
+    """The views' blurred colours (:func:`~.floor.blurred`), made once per list of images (the same list object:
+    an id alone was reused by the next scene's list once the last one was freed, which then got its blur)."""
+    if _BLURRED[0] is not images:
+        _BLURRED[:] = [images, [blurred(img) for img in images]]
+    return _BLURRED[1]
 
 
 def _points(scene: Scene, log: Callable[[str], None]) -> Scene:
@@ -160,12 +170,14 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
                                                              np.clip(uv[:, 0].astype(int), 0, img.shape[1] - 1)]
                                         for img, (uv, _) in zip(images, seeds)]))
     reach = [~reach_mask(c, region, img.shape[:2]) for c, img in zip(cams, images)]
+    # no support and hardly a background point: the photos' edges are the background's best sample
+    edge = region.plane is None and len(region.background_points) < 20
+    backgrounds = [view_background(img, r, s[1], edge) for img, r, s in zip(images, reach, seeds)]
+    unlike = [background_like(img, colours, b) for img, b in zip(images, backgrounds)]
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:  # GrabCut releases the GIL
         floors = list(pool.map(lambda k: _floor(k, cams, images, region), range(len(cams))))
-        # no support and hardly a background point: the photos' edges are the background's best sample
-        edge = region.plane is None and len(region.background_points) < 20
-        masks = list(pool.map(lambda k: likely_object(images[k], colours, seeds[k][0], reach[k], seeds[k][1],
-                                                      floors[k][1], edge), range(len(cams))))
+        masks = list(pool.map(lambda k: likely_object(images[k], colours, seeds[k][0], reach[k], backgrounds[k],
+                                                      floors[k][1]), range(len(cams))))
         first = masks
         for _ in range(rounds):
             hull = carve(cams, masks, region, agree=FIRST_AGREE)
@@ -176,8 +188,9 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
             if region.background_views is None:  # background points the hull hides in a view seed nothing there
                 seeds = [_seeds(k, c, region, s) for k, (c, s) in enumerate(zip(cams, shadows))]
             band = max(2.0, 0.03 * CUT_SIZE)
-            masks = list(pool.map(lambda k: hull_cut(images[k], shadows[k], *seeds[k], band, floors[k][0]),
-                                  range(len(cams))))
+            masks = list(pool.map(lambda k: hull_cut(images[k], shadows[k], *seeds[k], band, floors[k][0],
+                                                     unlike=unlike[k]), range(len(cams))))
+    _BLURRED[:] = [None, []]  # the floor cue is done with this capture's images
     final = carve(cams, masks, region)
     agree = agreement(masks, [shadow(c, final, m.shape) for c, m in zip(cams, masks)])
     log(f"automatic masks: {len(region.object_points)} object points, "
@@ -194,11 +207,12 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
 
 def fingerprint(scene: Scene) -> str:
     """A digest of what automatic masks are made from: each view's name, pose, intrinsics and pixels as loaded
-    (another photo, another ``--size``, a new SfM run each change it), and the doodle release that made them."""
+    (another photo, another ``--size``, a new SfM run each change it), and the doodle release and mask
+    :data:`REVISION` that made them."""
     from ... import __version__
 
     h = hashlib.blake2b(digest_size=16)
-    h.update(__version__.encode())
+    h.update(f"{__version__} masks {REVISION}".encode())
     for cam, img in zip(scene.cameras, scene.images):
         h.update(f"{cam.name}|{cam.fx},{cam.fy},{cam.cx},{cam.cy},{cam.width},{cam.height}|{img.shape}|{img.dtype}"
                  .encode())
