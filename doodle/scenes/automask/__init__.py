@@ -12,7 +12,10 @@ per-view colour models, and the views are made to agree on one object.
    projected background points (background) and the object points' outline (probably object).
 3. **One object** (:mod:`.hull`): the first cuts vote on a voxel hull above the support; every view is cut again
    seeded by the hull's projection, so a view that disagrees with the others is segmented again with what
-   they see, and what only one view took (a patch of floor) goes. Thin parts the cuts lose (ears, a tail)
+   they see, and what only one view took (a patch of floor) goes. What every view took, the hull keeps: the
+   carpet seen between legs, coloured and textured like the floor round it, is seeded background in the
+   projection (:func:`.cut.background_like`, :func:`.cut.textured_like_floor`), and the overexposed highlights
+   a cut gave away are put back (:func:`.cut.fill_highlights`). Thin parts the cuts lose (ears, a tail)
    are put back where the first masks agree on them (:mod:`.thin`).
 4. **Plausibility**: masks that cover most of every photo, or that still disagree between views, stop here with
    one line saying to give masks (``--masks DIR``), instead of drawing the floor.
