@@ -80,17 +80,6 @@ def _resize(a: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return np.asarray(Image.fromarray(a).resize(size, Image.Resampling.BOX))
 
 
-_BLURRED: list = [None, []]  # the list of images last blurred (held, so its id is not reused) and its blur
-
-
-def _blurred(images: list[np.ndarray]) -> list[np.ndarray]:
-    """The views' blurred colours (:func:`~.floor.blurred`), made once per list of images (the same list object:
-    an id alone was reused by the next scene's list once the last one was freed, which then got its blur)."""
-    if _BLURRED[0] is not images:
-        _BLURRED[:] = [images, [blurred(img) for img in images]]
-    return _BLURRED[1]
-
-
 def _points(scene: Scene, log: Callable[[str], None]) -> Scene:
     """The scene with 3D points: its own (SfM), or triangulated with its known poses."""
     if scene.points is not None and len(scene.points) >= 10:
@@ -131,10 +120,10 @@ def _seeds(k: int, cam, region: ObjectRegion, hidden: np.ndarray | None = None) 
     return ouv, buv[~hidden[v, u]]
 
 
-def _floor(k: int, cams: list, images: list[np.ndarray], region: ObjectRegion) -> tuple[np.ndarray, np.ndarray]:
+def _floor(k: int, cams: list, colours: list[np.ndarray], region: ObjectRegion) -> tuple[np.ndarray, np.ndarray]:
     """View ``k``'s ``(floor, off_floor)`` pixels (:mod:`.floor`): those that show the support, and those whose ray
-    meets it where the other views see something else."""
-    colours = _blurred(images)
+    meets it where the other views see something else. ``colours``: every view's image blurred
+    (:func:`~.floor.blurred`)."""
     error = floor_error(k, cams, colours, region)
     on = np.abs(region.height(region.background_points)) <= PLANE_TOL * region.radius
     uv, ok = in_view(cams[k], region.background_points[on])
@@ -178,7 +167,8 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
     backgrounds = [view_background(img, r, s[1], edge) for img, r, s in zip(images, reach, seeds)]
     unlike = [background_like(img, colours, b) for img, b in zip(images, backgrounds)]
     with ThreadPoolExecutor(min(cpu_count(), 8)) as pool:  # GrabCut releases the GIL
-        floors = list(pool.map(lambda k: _floor(k, cams, images, region), range(len(cams))))
+        blurs = list(pool.map(blurred, images))
+        floors = list(pool.map(lambda k: _floor(k, cams, blurs, region), range(len(cams))))
         masks = list(pool.map(lambda k: likely_object(images[k], colours, seeds[k][0], reach[k], backgrounds[k],
                                                       floors[k][1]), range(len(cams))))
         first = masks
@@ -193,7 +183,6 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
             band = max(2.0, 0.03 * CUT_SIZE)
             masks = list(pool.map(lambda k: hull_cut(images[k], shadows[k], *seeds[k], band, floors[k][0],
                                                      unlike=unlike[k]), range(len(cams))))
-    _BLURRED[:] = [None, []]  # the floor cue is done with this capture's images
     final = carve(cams, masks, region)
     agree = agreement(masks, [shadow(c, final, m.shape) for c, m in zip(cams, masks)])
     log(f"automatic masks: {len(region.object_points)} object points, "

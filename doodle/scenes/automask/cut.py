@@ -100,6 +100,12 @@ def histogram(bins: np.ndarray, weight: float = 1.0) -> np.ndarray:
     return weight * h.ravel() / max(h.sum(), 1e-12)
 
 
+def overexposed(image: np.ndarray) -> np.ndarray:
+    """``bool (H, W)``: the pixels of ``image`` ``(H, W, 3)`` clipped to white (channels averaging at least
+    :data:`CLIPPED`), which have no colour to judge."""
+    return np.asarray(image, np.float32)[..., :3].mean(-1) >= CLIPPED
+
+
 def view_background(image: np.ndarray, surely_not: np.ndarray, background_uv: np.ndarray, edge: bool = False
                     ) -> np.ndarray:
     """The colour histogram (:func:`histogram`) of one view's background: the pixels ``surely_not``
@@ -121,9 +127,8 @@ def background_like(image: np.ndarray, object_colours: np.ndarray, background: n
     ``object_colours``, and not overexposed (:data:`CLIPPED`: a clipped highlight has no colour). Within the
     hull's projection these are the floor the hull's chunk between a calf's legs holds in every view."""
     bins = colour_bins(image)
-    bright = np.asarray(image, np.float32)[..., :3].mean(-1) >= CLIPPED
     return (BACKGROUND_ODDS * object_colours[bins] < background[bins]) & (background[bins] > 1.0 / BINS ** 3) \
-        & ~bright
+        & ~overexposed(image)
 
 
 def likely_object(image: np.ndarray, object_colours: np.ndarray, object_uv: np.ndarray, surely_not: np.ndarray,
@@ -193,15 +198,19 @@ def fill_highlights(mask: np.ndarray, image: np.ndarray, floor: np.ndarray | Non
     outline, where the highlight meets the silhouette, in others; either carves a notch into every view's
     hull), while a hole through an object (a mug's handle) shows the floor or what stands behind, in colour.
     ``image`` ``(H, W, 3)`` uint8 at the mask's size."""
-    clipped = np.asarray(image, np.float32)[..., :3].mean(-1) >= CLIPPED
+    clipped = overexposed(image)
+
+    def off_floor(labels: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Which of the regions ``index`` the floor cue holds under half of."""
+        return ndimage.mean(floor, labels, index) < 0.5 if floor is not None else np.ones(len(index), bool)
+
     labels, n = ndimage.label(~mask)
     if n == 0:
         return mask
     border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
     index = np.arange(1, n + 1)
     share = ndimage.mean(clipped, labels, index)
-    on_floor = ndimage.mean(floor, labels, index) if floor is not None else np.zeros(n)
-    fill = index[(share >= HIGHLIGHT_SHARE) & (on_floor < 0.5) & ~np.isin(index, border)]
+    fill = index[(share >= HIGHLIGHT_SHARE) & off_floor(labels, index) & ~np.isin(index, border)]
     out = mask | np.isin(labels, fill) if len(fill) else mask.copy()
     if within is not None and (around is None or not around.any() or clipped[around].mean() < 0.1):
         # the overexposed pixels of the hull's projection the mask left out, where they touch it
@@ -209,8 +218,7 @@ def fill_highlights(mask: np.ndarray, image: np.ndarray, floor: np.ndarray | Non
         if n:
             index = np.arange(1, n + 1)
             touching = ndimage.maximum(ndimage.binary_dilation(out), labels, index) > 0
-            on_floor = ndimage.mean(floor, labels, index) if floor is not None else np.zeros(n)
-            out |= np.isin(labels, index[touching & (on_floor < 0.5)])
+            out |= np.isin(labels, index[touching & off_floor(labels, index)])
     return out
 
 
