@@ -21,6 +21,7 @@ from ..errors import SceneError
 from .colmap import load_colmap, quiet_pycolmap
 from .images import open_image
 from .scene import Scene
+from .sensor import one_lens, sensor_copies, write_upright_model
 
 ORIENTATION = 0x0112  # the EXIF orientation tag
 FEATURE_SIZE = 1600
@@ -160,15 +161,17 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
     db = work / "database.db"
     # Photos of one size are taken to come from one camera: one shared set of intrinsics is far better
     # constrained (on 34 Lego photos, camera centres 1 % off instead of 3–6 % with a camera per photo).
-    sizes, rotated = set(), []
+    # Portrait and landscape photos of one size are one lens too: posed turned the way the sensor lies, through
+    # one camera, and turned back upright after (sensor.py).
+    sizes, rotated = [], []
     for p in photos:
         try:
             with open_image(p) as im:
                 if im.getexif().get(ORIENTATION, 1) not in (0, 1):
                     rotated.append(p)
-                    sizes.add(ImageOps.exif_transpose(im).size)
+                    sizes.append(ImageOps.exif_transpose(im).size)
                 else:
-                    sizes.add(im.size)
+                    sizes.append(im.size)
         except (OSError, SyntaxError):
             raise SceneError(f"{p}: not a readable image") from None
     image_dir = root
@@ -182,30 +185,23 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
                     ImageOps.exif_transpose(im).convert("RGB").save(image_dir / p.name, quality=95)
             else:
                 shutil.copyfile(p, image_dir / p.name)
-    shared = len(sizes) == 1
+    turned = {p.name for p, (w, h) in zip(photos, sizes) if h > w} if one_lens(sizes) else set()
+    posed_dir = sensor_copies(image_dir, [p.name for p in photos], turned, work / "sensor") if turned else image_dir
+    shared = len(set(sizes)) == 1
     exhaustive = len(photos) <= EXHAUSTIVE_PHOTOS
     log(f"structure-from-motion (pycolmap): {len(photos)} photos, "
-        f"{'one shared camera' if shared else 'a camera per photo size'}; extracting SIFT features (long side "
-        f"{FEATURE_SIZE} px at most) and matching {'every pair' if exhaustive else 'neighbours in name order'}")
+        f"{'one shared camera' if shared else 'one lens for portrait and landscape' if turned else 'a camera per photo size'}"
+        f"; extracting SIFT features (long side {FEATURE_SIZE} px at most) and matching "
+        f"{'every pair' if exhaustive else 'neighbours in name order'}")
     try:
         with quiet_pycolmap():
-            mode = pycolmap.CameraMode.SINGLE if shared else pycolmap.CameraMode.AUTO
-            extraction = pycolmap.FeatureExtractionOptions()
-            extraction.max_image_size = FEATURE_SIZE
-            pycolmap.extract_features(db, image_dir, image_names=[p.name for p in photos], camera_mode=mode,
-                                      extraction_options=extraction)
-            # (guided matching found more matches on a carpet capture, registered 40 of 40 instead of 39, and
-            # took six times as long: not used)
-            matching = pycolmap.FeatureMatchingOptions()
-            if exhaustive:
-                pycolmap.match_exhaustive(db, matching_options=matching)
-            else:  # a capture walked round the object, in order: neighbours and, quadratically, farther ones
-                pairing = pycolmap.SequentialPairingOptions()
-                pairing.overlap, pairing.quadratic_overlap = 20, True
-                pycolmap.match_sequential(db, matching_options=matching, pairing_options=pairing)
-            recs = pycolmap.incremental_mapping(db, image_dir, work / "sparse", options=mapper_options())
+            # (for the mixed orientations of one lens, a camera per photo is no fallback where one camera fails:
+            # on a small capture it registered 13-16 of 24 photos as nonsense, focal lengths up to 6.6 million px)
+            recs = _pose(db, posed_dir, photos, shared or bool(turned), exhaustive, work / "sparse")
     except Exception as exc:  # pycolmap reports failures as RuntimeError/ValueError with long texts
         raise SceneError(f"{root}: structure-from-motion failed ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    finally:  # the turned copies are only for SfM; the scene loads the upright photos
+        shutil.rmtree(work / "sensor", ignore_errors=True)
     best = _main_model(list(recs.values()))
     if best is None or best.num_reg_images() < 3:
         n = 0 if best is None else best.num_reg_images()
@@ -216,11 +212,38 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
     dropped = drop_misaimed(best, log)
     best = without_spurious_distortion(best, log)
     model.mkdir(parents=True, exist_ok=True)
+    if turned:  # the model of the upright photos, which the scene loads and masks are drawn on
+        write_upright_model(best, turned, work / "upright")
+        best = pycolmap.Reconstruction(str(work / "upright"))
+        shutil.rmtree(work / "upright")
     best.write(str(model))
     left = write_registration(work, db, photos, best, list(recs.values()), dropped)
     log(f"structure-from-motion: registered {best.num_reg_images()} of {len(photos)} photos, "
         f"{best.num_points3D()} points" + (f"; the {left} left out and why: {work / REPORT}" if left else ""))
     return model
+
+
+def _pose(db: Path, image_dir: Path, photos: list[Path], one_camera: bool, exhaustive: bool, out: Path) -> dict:
+    """SIFT features, matches and incremental mapping of ``photos`` (in ``image_dir``) into the database ``db``
+    and the models under ``out``: one camera for all photos, or one per photo."""
+    import pycolmap
+
+    extraction = pycolmap.FeatureExtractionOptions()
+    extraction.max_image_size = FEATURE_SIZE
+    mode = pycolmap.CameraMode.SINGLE if one_camera else pycolmap.CameraMode.AUTO
+    pycolmap.extract_features(db, image_dir, image_names=[p.name for p in photos], camera_mode=mode,
+                              extraction_options=extraction)
+    # (guided matching found more matches on a carpet capture, registered 40 of 40 instead of 39, and took six
+    # times as long: not used)
+    matching = pycolmap.FeatureMatchingOptions()
+    if exhaustive:
+        pycolmap.match_exhaustive(db, matching_options=matching)
+    else:  # a capture walked round the object, in order: neighbours and, quadratically, farther ones
+        pairing = pycolmap.SequentialPairingOptions()
+        pairing.overlap, pairing.quadratic_overlap = 20, True
+        pycolmap.match_sequential(db, matching_options=matching, pairing_options=pairing)
+    out.mkdir(parents=True, exist_ok=True)
+    return pycolmap.incremental_mapping(db, image_dir, out, options=mapper_options())
 
 
 def mapper_options():
