@@ -66,6 +66,21 @@ def test_sensor_copies_turn_portrait_photos_the_way_the_points_turn(tmp_path):
     assert (out / "l.png").read_bytes() == (src / "l.png").read_bytes()
 
 
+
+def test_turned_copies_keep_the_photos_focal_length_for_colmap(tmp_path):
+    """A phone's EXIF focal length is COLMAP's prior for the camera: a turned copy keeps it (and loses only its
+    orientation tag), so that SfM does not start from a guess for the copies alone."""
+    src, out = tmp_path / "src", tmp_path / "sensor"
+    src.mkdir()
+    exif = Image.Exif()
+    exif[0x0112] = 6  # stored landscape, shown portrait
+    exif.get_ifd(0x8769)[0xA405] = 26  # FocalLengthIn35mmFilm
+    Image.fromarray(np.zeros((30, 40, 3), np.uint8)).save(src / "p.jpg", exif=exif.tobytes())
+    Image.fromarray(np.zeros((40, 30, 3), np.uint8)).save(src / "q.jpg", exif=exif.tobytes())
+    sensor_copies(src, ["p.jpg", "q.jpg"], {"q.jpg"}, out)
+    copy = Image.open(out / "q.jpg").getexif()
+    assert copy.get(0x0112, 1) == 1 and copy.get_ifd(0x8769).get(0xA405) == 26
+
 def test_the_upright_model_keeps_points_and_turns_only_portrait_views(tmp_path):
     """A two-view model of the sensor images, one of them a portrait photo: written upright, the portrait view
     has a portrait camera and its features project from the 3D points where they are recorded."""
@@ -128,3 +143,10 @@ def test_photos_of_both_orientations_are_posed_with_one_lens(tmp_path):
     est = np.array([c.center for c in scene.cameras])
     _, _, disparity = procrustes(np.array([centre[c.name] for c in scene.cameras]), est)
     assert np.sqrt(disparity) < 0.03
+    # an earlier release's cache (a camera per orientation) is reused, with the way to pose them as one lens
+    from doodle.scenes.photos import run_sfm
+
+    (photos / ".doodle-sfm" / "one-lens.txt").unlink()
+    said = []
+    run_sfm(photos, log=said.append)
+    assert any("delete" in m and "one lens" in m for m in said), said

@@ -19,7 +19,7 @@ from PIL import ImageOps
 
 from ..errors import SceneError
 from .colmap import load_colmap, quiet_pycolmap
-from .images import open_image
+from .images import open_image, save_turned
 from .scene import Scene
 from .sensor import one_lens, sensor_copies, write_upright_model
 
@@ -30,6 +30,9 @@ more features that match across views, and takes 6× the time)."""
 EXHAUSTIVE_PHOTOS = 300
 """Up to this many photos every pair is matched; beyond, each photo with its neighbours in name order (the order
 a capture is taken in), as COLMAP's sequential matching does."""
+ONE_LENS = "one-lens.txt"
+"""Beside the SfM cache of portrait and landscape photos: they were posed as one lens (an earlier release's
+cache, without it, gave each orientation or photo its own camera)."""
 REPORT = "registration.txt"
 """Beside the SfM cache: every photo, registered or left out, and why."""
 IMAGE_SUFFIXES = {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp"}
@@ -155,6 +158,9 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
     model = work / "model"
     if (model / "cameras.bin").exists():
         log(f"structure-from-motion: reusing {model}")
+        if not (work / ONE_LENS).exists() and one_lens(_upright_sizes(photos)[0]):
+            log(f"structure-from-motion: that model, made by an earlier release, gives portrait and landscape "
+                f"photos cameras of their own; delete {work} to pose them as one lens (better poses)")
         return model
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
@@ -163,17 +169,7 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
     # constrained (on 34 Lego photos, camera centres 1 % off instead of 3–6 % with a camera per photo).
     # Portrait and landscape photos of one size are one lens too: posed turned the way the sensor lies, through
     # one camera, and turned back upright after (sensor.py).
-    sizes, rotated = [], []
-    for p in photos:
-        try:
-            with open_image(p) as im:
-                if im.getexif().get(ORIENTATION, 1) not in (0, 1):
-                    rotated.append(p)
-                    sizes.append(ImageOps.exif_transpose(im).size)
-                else:
-                    sizes.append(im.size)
-        except (OSError, SyntaxError):
-            raise SceneError(f"{p}: not a readable image") from None
+    sizes, rotated = _upright_sizes(photos)
     image_dir = root
     if rotated:
         image_dir = work / "images"
@@ -182,7 +178,7 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
         for p in photos:
             if p in rotated:
                 with open_image(p) as im:
-                    ImageOps.exif_transpose(im).convert("RGB").save(image_dir / p.name, quality=95)
+                    save_turned(ImageOps.exif_transpose(im), im, image_dir / p.name)
             else:
                 shutil.copyfile(p, image_dir / p.name)
     turned = {p.name for p, (w, h) in zip(photos, sizes) if h > w} if one_lens(sizes) else set()
@@ -216,11 +212,29 @@ def run_sfm(root: str | Path, log: Callable[[str], None] = _to_stderr) -> Path:
         write_upright_model(best, turned, work / "upright")
         best = pycolmap.Reconstruction(str(work / "upright"))
         shutil.rmtree(work / "upright")
+        (work / ONE_LENS).write_text("portrait photos posed turned, through the landscape photos' camera\n")
     best.write(str(model))
     left = write_registration(work, db, photos, best, list(recs.values()), dropped)
     log(f"structure-from-motion: registered {best.num_reg_images()} of {len(photos)} photos, "
         f"{best.num_points3D()} points" + (f"; the {left} left out and why: {work / REPORT}" if left else ""))
     return model
+
+
+def _upright_sizes(photos: list[Path]) -> tuple[list[tuple[int, int]], list[Path]]:
+    """Each photo's size ``(w, h)`` as it is shown (EXIF orientation applied), and the photos that carry an
+    EXIF rotation."""
+    sizes, rotated = [], []
+    for p in photos:
+        try:
+            with open_image(p) as im:
+                if im.getexif().get(ORIENTATION, 1) not in (0, 1):
+                    rotated.append(p)
+                    sizes.append(ImageOps.exif_transpose(im).size)
+                else:
+                    sizes.append(im.size)
+        except (OSError, SyntaxError):
+            raise SceneError(f"{p}: not a readable image") from None
+    return sizes, rotated
 
 
 def _pose(db: Path, image_dir: Path, photos: list[Path], one_camera: bool, exhaustive: bool, out: Path) -> dict:

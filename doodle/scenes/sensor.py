@@ -70,13 +70,13 @@ def sensor_copies(src: Path, names: list[str], turned: set[str], out: Path) -> P
 
     from PIL import Image
 
-    from .images import open_image
+    from .images import open_image, save_turned
 
     out.mkdir(parents=True, exist_ok=True)
     for name in names:
         if name in turned:
             with open_image(src / name) as im:
-                im.convert("RGB").transpose(Image.Transpose.ROTATE_90).save(out / name, quality=95)
+                save_turned(im.transpose(Image.Transpose.ROTATE_90), im, out / name)
             continue
         try:
             os.link(src / name, out / name)
