@@ -168,3 +168,19 @@ def first_occupied(free: np.ndarray, at: Callable[[np.ndarray, np.ndarray], np.n
         go = ~hit & (j < n[rows])
         rows, j = rows[go], j[go]
     return first
+
+
+def silhouette_boundary(mask: np.ndarray) -> np.ndarray:
+    """The pixels of ``mask`` ``bool (H, W)`` next to its background: its outline, without the frame's edge
+    where the object runs out of the photo (a cut the camera made, not an outline of the object).
+
+    >>> m = np.zeros((4, 5), bool); m[1:, 1:4] = True  # touches the bottom edge
+    >>> silhouette_boundary(m).astype(int)
+    array([[0, 0, 0, 0, 0],
+           [0, 1, 1, 1, 0],
+           [0, 1, 0, 1, 0],
+           [0, 1, 0, 1, 0]])
+    """
+    from scipy import ndimage
+
+    return mask & ~ndimage.binary_erosion(mask, border_value=1)

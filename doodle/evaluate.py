@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from .arrays import silhouette_boundary
 from .errors import DoodleError
 from .exporters import DrawOptions, draw_many, svg_to_array, to_svg, union_mask
 from .fit.gradient.targets import line_map
@@ -28,7 +29,7 @@ def _view_row(name: str, stroke: np.ndarray, image: np.ndarray, mask: np.ndarray
     row: dict[str, Any] = {"view": name}
     row["line_precision"] = float((ndimage.distance_transform_edt(~ref)[stroke] <= tau).mean()) if stroke.any() else 0.0
     if mask is not None:
-        boundary = mask ^ ndimage.binary_erosion(mask)
+        boundary = silhouette_boundary(mask)
         row["silhouette_recall"] = float((ndimage.distance_transform_edt(~stroke)[boundary] <= tau).mean()) \
             if stroke.any() and boundary.any() else 0.0
     return row

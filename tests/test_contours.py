@@ -342,3 +342,17 @@ def test_the_contour_march_finds_where_each_ray_first_enters_the_hull_as_steppin
     brute = np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)
     assert 0.2 < (brute >= 0).mean() < 0.9, (brute >= 0).mean()
     assert (first == brute).all()
+
+
+def test_no_contour_is_traced_along_the_frame_that_cuts_the_object():
+    """Where the object runs out of the photo, the mask's edge is the frame's: no ray of the outline is cast
+    there (the release before cast a row of them, which made contour curves along the frame)."""
+    from doodle.fit.discovery.rims import _boundary_rays
+
+    cam = _cameras(1)[0]
+    mask = np.zeros((cam.height, cam.width), bool)
+    mask[cam.height // 2:, cam.width // 4: 3 * cam.width // 4] = True  # out of the bottom of the frame
+    rays = _boundary_rays(cam, mask)
+    xy = np.concatenate([r[0] for r in rays])
+    assert xy[:, 1].min() < cam.height / 2 + 1  # the top edge is traced
+    assert (xy[:, 1] > cam.height - 1.5).sum() <= 4  # the frame's edge is not (only the sides' ends reach it)

@@ -54,3 +54,20 @@ def test_cli_scores_a_folder_of_drawings(snowman_dir: Path, tmp_path: Path):
     assert r.exit_code == 2 and "3 SVG drawings for the 4 cameras" in r.output, r.output
     r = CliRunner().invoke(cli, ["eval", str(tmp_path), str(snowman_dir)])  # no drawings at all
     assert r.exit_code == 2 and "no .svg drawings" in r.output, r.output
+
+
+def test_the_frame_that_cuts_the_object_is_not_its_outline():
+    """Silhouette recall counts the outline's pixels, not the frame's edge where the object runs out of the
+    photo: a drawing of the object's outline alone has recall 1 (it was 0.82 with the edge counted)."""
+    from doodle.arrays import silhouette_boundary
+    from doodle.evaluate import _view_row
+
+    mask = np.zeros((64, 64), bool)
+    mask[20:, 16:48] = True  # a box standing out of the bottom of the frame
+    outline = np.zeros_like(mask)
+    outline[20, 16:48] = outline[20:, 16] = outline[20:, 47] = True
+    assert (silhouette_boundary(mask) == outline).all()
+    image = np.full((64, 64, 3), 255, np.uint8)
+    image[mask] = 60
+    row = _view_row("v", outline, image, mask, 2.0)
+    assert row["silhouette_recall"] == 1.0

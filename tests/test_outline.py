@@ -156,3 +156,20 @@ def test_a_hull_survives_both_file_encodings_and_binary_version_3_is_read():
                             (dict(axes=[[1, 0, 0], [1, 0, 0], [0, 0, 1]]), "hull.axes: expected orthonormal rows")):
         with pytest.raises(StrokeFileError, match=message):
             loads(json.dumps({**good, "hull": {**good["hull"], **change}}))
+
+
+def test_where_the_hull_runs_out_of_the_view_its_outline_stops_at_the_frame():
+    """A view whose frame cuts the ball (the principal point moved so that its lower part lies below the
+    photo): the outline is the visible arc alone, open at the frame, and no line runs along the frame's edge
+    (the release before drew one there, a ruler line under the object)."""
+    hull = _ball()
+    eye = np.array([3.0, 0.0, 0.0])
+    R, t = look_at(eye, np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    cam = Camera(300.0, 300.0, 128.0, 100.0, 256, 128, R, t)  # the ball's centre 28 px above the bottom edge
+    [(polys, foot)] = outline_polylines(hull, [cam])
+    pts = np.concatenate(polys)
+    assert len(polys) == 1 and not np.allclose(polys[0][0], polys[0][-1])  # one open arc
+    r = np.linalg.norm(pts - [cam.cx, cam.cy], axis=1)
+    assert np.abs(r - _ball_outline_radius(cam, 0.6)).max() < 0.5 * foot  # every point on the circle
+    # nothing along the edge: the arc's two ends meet it (the ball's circle crosses it at ±54 px)
+    assert pts[:, 1].max() <= cam.height and (pts[:, 1] > cam.height - 1.5).sum() <= 4

@@ -49,6 +49,8 @@ RASTER_BIAS = 0.35
 largest value landing anywhere in it. Measured on voxelised balls seen from many sides, grids turned or not:
 0.32–0.37 (spread 0.1); the outline is moved in by this much."""
 MAX_RASTER = 4096
+#: Raster pixels the hull's projection is traced past the frame before its outline is cut at the frame.
+FRAME_MARGIN = 4
 
 
 _SHELLS: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # the last hulls' shells: batches of views share them
@@ -88,9 +90,11 @@ def outline_polylines(hull: Voxels, cameras: list[Camera]) -> list[tuple[list[np
             continue
         foot = float(cam.fx * hull.voxel / (1.0 if ortho else z.min()))
         scale = min(1.0 / foot, MAX_RASTER / max(cam.width, cam.height))  # raster pixels per image pixel
-        shape = (int(np.ceil(cam.height * scale)) + 2, int(np.ceil(cam.width * scale)) + 2)
-        col = np.floor(uv[:, 0] * scale).astype(np.intp) + 1
-        row = np.floor(uv[:, 1] * scale).astype(np.intp) + 1
+        pad = 1 + FRAME_MARGIN  # traced past the frame, then cut at it: where the hull runs out of the view,
+        # the raster's edge is no outline of it
+        shape = (int(np.ceil(cam.height * scale)) + 2 * pad, int(np.ceil(cam.width * scale)) + 2 * pad)
+        col = np.floor(uv[:, 0] * scale).astype(np.intp) + pad
+        row = np.floor(uv[:, 1] * scale).astype(np.intp) + pad
         ok = (col >= 1) & (row >= 1) & (col < shape[1] - 1) & (row < shape[0] - 1)
         if not ok.any():
             out.append(([], 0.0))
@@ -103,13 +107,15 @@ def outline_polylines(hull: Voxels, cameras: list[Camera]) -> list[tuple[list[np
                 continue
             closed = bool(np.allclose(c[0], c[-1]))
             c = c - RASTER_BIAS * _outward(image, c, closed)
-            xy = np.stack([c[:, 1] - 0.5, c[:, 0] - 0.5], axis=1) / scale  # raster pixel k's centre is k - 1 + 0.5
+            xy = np.stack([c[:, 1], c[:, 0]], axis=1) - (pad - 0.5)  # raster pixel k's centre is k - pad + 0.5
+            xy /= scale
             if closed:
                 xy = ndimage.gaussian_filter1d(xy[:-1], ALONG, axis=0, mode="wrap")
                 xy = np.vstack([xy, xy[:1]])
             else:
                 xy = ndimage.gaussian_filter1d(xy, ALONG, axis=0, mode="nearest")
-            polys.append(xy)
+            inside = (xy[:, 0] >= 0) & (xy[:, 1] >= 0) & (xy[:, 0] <= cam.width) & (xy[:, 1] <= cam.height)
+            polys += split_runs(xy, inside)
         out.append((polys, foot))
     return out
 

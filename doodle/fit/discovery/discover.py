@@ -25,7 +25,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ...arrays import spread_indices
+from ...arrays import silhouette_boundary, spread_indices
 from ...scenes import Scene
 from ...strokes.bezier import bezier_points
 from ...strokes.fitcurve import fit_cubics_many
@@ -524,7 +524,7 @@ def trace_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.1
     seconds["curves"] = time.perf_counter() - t
     t = time.perf_counter()
     # where the views see feature curves inside the hull, they see through it: its depth maps leave that out
-    boundaries = [m ^ ndimage.binary_erosion(m) for m in scene.masks]
+    boundaries = [silhouette_boundary(m) for m in scene.masks]
     free = seen_through(controls, ev, outlines=boundaries)
     ev = replace(ev, free=free, depth=depth_maps(ev.grid, ev.occupied & ~free, ev.cameras) if free.any() else ev.depth)
     seconds["sight lines"] = time.perf_counter() - t

@@ -22,6 +22,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import feature
 
+from ...arrays import silhouette_boundary
 from ...cameras import Camera
 from ...scenes import Scene
 from ..volume.carve import VoxelGrid, carve_hull, project_points
@@ -84,7 +85,7 @@ def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin) -> np.nd
     edges = feature.canny(gray, sigma=sigma, low_threshold=max(low, 0.5 * hi), high_threshold=hi)
     if mask is None:
         return edges
-    boundary = mask ^ ndimage.binary_erosion(mask)
+    boundary = silhouette_boundary(mask)
     lines = boundary | (edges & ndimage.binary_dilation(mask, iterations=2))
     if thin > 0:
         lines |= thin_parts(mask, thin, inside)[0]

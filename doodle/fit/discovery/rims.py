@@ -53,7 +53,7 @@ def _boundary_rays(cam: Camera, mask: np.ndarray, spacing: float = 1.25):
     """Ordered boundary polylines of a mask: per contour, sub-pixel positions ``(K, 2)`` (x, y) about
     ``spacing`` px apart, the outward 2D normals ``(K, 2)`` and tangents ``(K, 2)``, and whether it is closed."""
     H, W = mask.shape
-    padded = np.pad(mask.astype(np.float32), 1)
+    padded = np.pad(mask.astype(np.float32), 1, mode="edge")  # no outline along the frame where it cuts the object
     out = []
     for c in measure.find_contours(padded, 0.5):
         if len(c) < 8:

@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from ...arrays import silhouette_boundary
 from ...cameras import Camera
 from ...exporters.raster import ink_paths, raster_layer
 from ..gradient.silhouettes import silhouette_pixels
@@ -71,7 +72,7 @@ def sketch_score(strokes: StrokeSet, cameras: list[Camera], lines: list[np.ndarr
         if traced is not None:
             ops = [op for op in ops if not (op.id.startswith("contour-") and traced[int(op.id[8:])] == k)]
         img = ink_paths(np.zeros((cam.height, cam.width), bool), ops)
-        boundary = m ^ ndimage.binary_erosion(m)
+        boundary = silhouette_boundary(m)
         ink += int(img.sum())
         on += int((img & ndimage.binary_dilation(lm, iterations=tau_px)).sum())
         rim += int(boundary.sum())
@@ -106,7 +107,7 @@ def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Came
     on, ink = np.zeros(len(sq)), np.zeros(len(sq))
     for cam, per, lm, m in zip(cameras, layers, lines, masks):
         reach = max(1, round(tau * max(cam.width, cam.height)))
-        near = ndimage.binary_dilation(lm | (m ^ ndimage.binary_erosion(m)), iterations=reach)
+        near = ndimage.binary_dilation(lm | silhouette_boundary(m), iterations=reach)
         for i, img in per.items():
             on[i] += (img & near).sum()
             ink[i] += img.sum()
@@ -247,7 +248,7 @@ def confirmed_cells(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera
                                    0.03 * frame.radius, occluder)
         idx = idx[~hidden]
         reach = max(1, round(tau * max(W, H)))
-        near = ndimage.binary_dilation(lm | (mask ^ ndimage.binary_erosion(mask)), iterations=reach)
+        near = ndimage.binary_dilation(lm | silhouette_boundary(mask), iterations=reach)
         np.add.at(seen, (owner[idx], s.cells[idx]), 1)
         np.add.at(on, (owner[idx], s.cells[idx]), near[v[idx], u[idx]])
     return ((seen == 0) | (on >= min_share * seen)).reshape(m, *OUTLINE_CELLS)
@@ -410,6 +411,6 @@ def outline_share(sq: SuperquadricSet, frame: SceneFrame, cameras, masks: list[n
     the object's outline they draw, where no curves are chosen (``--curves 0``)."""
     drawn = silhouette_pixels(sq, frame, cameras, grow_px=reach, occluder=occluder) if sq.drawn.any() else \
         [np.zeros(m.shape, bool) for m in masks]
-    rims = [m ^ ndimage.binary_erosion(m) for m in masks]
+    rims = [silhouette_boundary(m) for m in masks]
     total = sum(int(r.sum()) for r in rims)
     return sum(int((r & d).sum()) for r, d in zip(rims, drawn)) / max(total, 1)
