@@ -2,8 +2,9 @@
 
 For each camera, the exported SVG is rasterised; the reference line map is the mask boundary plus the
 image's strong edges. Line precision = share of stroke pixels within τ px of a reference line; silhouette
-recall = share of mask-boundary pixels within τ px of a stroke; F = their harmonic mean. Also the
-superquadric union's silhouette IoU against the mask and the stroke file's size in both encodings.
+recall = share of mask-boundary pixels (not the frame's edge where the object runs out of the photo) within τ px
+of a stroke; F = their harmonic mean. Also the superquadric union's silhouette IoU against the mask and the
+stroke file's size in both encodings.
 """
 
 from __future__ import annotations
