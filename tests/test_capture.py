@@ -577,30 +577,3 @@ def test_a_thin_part_the_cuts_lost_comes_back_from_the_first_masks_and_a_floor_p
     patch_px = [f & ~t for f, t in zip(first, truth)]
     assert sum(p.sum() for p in patch_px) > 1000 and not any((m & p).any() for m, p in zip(masks, patch_px))
     assert all((m | f == m).all() for m, f in zip(masks, final))  # only ever adds
-
-
-def test_the_masks_hull_keeps_an_object_the_photos_cut():
-    """The scene radius is the sphere every camera sees whole; an object the photos cut reaches farther (DTU's
-    skull: 1.18 radii from the focus). The masks' hull is carved in a box of 2 radii about the focus, so a tall
-    object reaching 1.5 radii up keeps its top (a box of 1.2 radii cut it off every view's mask)."""
-    from doodle.cameras import Camera
-    from doodle.cameras.camera import look_at
-    from doodle.exporters import union_mask
-    from doodle.scenes.automask.hull import carve
-    from doodle.scenes.automask.region import ObjectRegion
-    from doodle.strokes import SuperquadricSet
-
-    radius = 1.0
-    pillar = SuperquadricSet(scale=np.array([[0.5, 0.5, 1.5]]), shape=np.array([[0.3, 1.0]]),
-                             rotation=np.array([[1.0, 0, 0, 0]]), translation=np.zeros((1, 3)))
-    cams = []
-    for k in range(12):
-        a, e = 2 * np.pi * k / 12, np.radians(20.0 if k % 2 else 50.0)
-        eye = 6.0 * np.array([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)])
-        cams.append(Camera(200.0, 200.0, 80.0, 80.0, 160, 160, *look_at(eye, np.zeros(3), np.array([0.0, 0, 1]))))
-    masks = [union_mask(pillar, c) for c in cams]
-    region = ObjectRegion(np.zeros(3), np.random.default_rng(0).uniform(-0.4, 0.4, (50, 3)), np.zeros((0, 3)),
-                          None, radius)
-    hull = carve(cams, masks, region)
-    top = hull.centres[:, 2].max()
-    assert top > 1.5 - 2 * hull.voxel, top

@@ -26,12 +26,6 @@ FIRST_AGREE = 0.9
 """... and in the hull carved from the generous first masks, where a view's miss is likelier (a highlight, a
 shadow): on the DTU skull, the hull's recall of the object 0.92 at :data:`AGREE`, 0.98 at 0.9 (precision 0.93 →
 0.91, which the cut seeded by it takes back)."""
-REACH = 2.0
-"""How far (in scene radii about the focus) the object may reach. The scene radius is the sphere every camera
-sees whole, and an object the photos cut is larger: DTU's skull reaches 1.18 radii from the focus (34 of its 49
-photos cut it), and where the hull's grid stopped at 1.2 its face cut the top of the cranium off 8 views'
-masks (IoU 0.968, worst 0.887). The grid grows by :data:`GROW` radii where the object reaches a face of it."""
-GROW = 0.4
 HULL_VOXELS = 96
 """Voxels along the longest side of the grid the masks vote on."""
 
@@ -54,8 +48,7 @@ class VoxelHull:
 def _box(region: ObjectRegion) -> tuple[np.ndarray, np.ndarray]:
     """The box the hull is carved in: the object points' box grown by its own size on every side, and by at
     least 1.2 scene radii (a smooth part without points, a cranium above a face, an object that gave
-    few points at all, lies in it), within 1.2 scene radii of the focus (:func:`carve` grows it where the
-    object reaches its faces)."""
+    few points at all, lies in it), within the scene's sphere about the focus."""
     pts = region.object_points
     lo, hi = np.percentile(pts, 1, axis=0), np.percentile(pts, 99, axis=0)
     r = region.radius
@@ -103,25 +96,10 @@ def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, 
     (``(lo, hi)``, world; default: the box the object can reach, :func:`_box`)."""
     lo, hi = _box(region) if box is None else box
     voxel = float((hi - lo).max()) / n
-    limit = (region.focus - REACH * region.radius, region.focus + REACH * region.radius)
-    while True:
-        axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-        keep = called_object(cameras, masks, grid, agree) & (region.height(grid) > PLANE_TOL * region.radius)
-        occupied = keep.reshape([len(a) for a in axes])
-        if box is not None:
-            break
-        # the object reaches a face of the box (the photos cut it, so it is larger than the sphere they all
-        # see): that face moves out, as far as REACH, with the voxels' size kept
-        grown_lo, grown_hi = lo.copy(), hi.copy()
-        for a in range(3):
-            if occupied.take(0, axis=a).any():
-                grown_lo[a] = max(lo[a] - GROW * region.radius, limit[0][a])
-            if occupied.take(-1, axis=a).any():
-                grown_hi[a] = min(hi[a] + GROW * region.radius, limit[1][a])
-        if np.allclose(grown_lo, lo) and np.allclose(grown_hi, hi):
-            break
-        lo, hi = grown_lo, grown_hi
+    axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    keep = called_object(cameras, masks, grid, agree) & (region.height(grid) > PLANE_TOL * region.radius)
+    occupied = keep.reshape([len(a) for a in axes])
     # what stands apart from the object's body is not the object (a patch of floor a few cuts took)
     labels, count = ndimage.label(occupied)
     if count > 1:
