@@ -17,9 +17,14 @@ image ``S`` (``h × w``), so a point ``(x, y)`` of ``P`` lies at ``(y, w − x)`
 
 from __future__ import annotations
 
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
+
+from .images import open_image, save_turned
 
 QUARTER = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 """``M``: camera coordinates of the sensor image ``S`` → those of the upright portrait photo ``P``."""
@@ -65,13 +70,6 @@ def sensor_copies(src: Path, names: list[str], turned: set[str], out: Path) -> P
     """Write the photos ``names`` of folder ``src`` into ``out`` the way the sensor lies: those in ``turned``
     (upright portrait photos) turned a quarter counter-clockwise, the others linked (or copied). Returns
     ``out``."""
-    import os
-    import shutil
-
-    from PIL import Image
-
-    from .images import open_image, save_turned
-
     out.mkdir(parents=True, exist_ok=True)
     for name in names:
         if name in turned:
@@ -91,10 +89,13 @@ def _num(*values) -> str:
 
 
 def write_upright_model(rec, turned: set[str], out: Path) -> None:
-    """Write ``rec`` (a ``pycolmap.Reconstruction`` posing sensor images) as a COLMAP text model of the upright
-    photos: each image named in ``turned`` gets a portrait camera (one per sensor camera), its pose and its
-    features' positions turned; the 3D points and every other image stay as they are."""
-    cameras, camera_of, portrait_id = {}, {}, {}
+    """Write the registered images and 3D points of ``rec`` (a ``pycolmap.Reconstruction`` posing sensor
+    images) as a COLMAP text model of the upright photos in ``out``: each image named in ``turned`` gets a
+    portrait camera (one per sensor camera), its pose and its features' positions turned; the 3D points and
+    every other image stay as they are."""
+    import pycolmap
+
+    cameras, portrait_id = {}, {}
     next_id = max(rec.cameras) + 1
     for cid, cam in rec.cameras.items():
         params = np.asarray(cam.params, dtype=np.float64)
@@ -103,19 +104,6 @@ def write_upright_model(rec, turned: set[str], out: Path) -> None:
             cameras[next_id] = (cam.model.name, cam.height, cam.width,
                                 portrait_params(cam.model.name, params, (cam.width, cam.height)))
             portrait_id[cid], next_id = next_id, next_id + 1
-    for i in rec.reg_image_ids():
-        cid = rec.image(i).camera_id
-        camera_of[i] = portrait_id[cid] if rec.image(i).name in turned else cid
-    write_text_model(rec, out, cameras, camera_of, turned)
-
-
-def write_text_model(rec, out: Path, cameras: dict, camera_of: dict, turned: set[str] = frozenset()) -> None:
-    """Write the registered images and 3D points of ``rec`` as a COLMAP text model in ``out``, each image
-    through camera ``camera_of[image_id]`` of ``cameras`` (``id → (model, width, height, params)``); images
-    named in ``turned`` are written as upright portrait photos of their sensor images (pose and features
-    turned)."""
-    import pycolmap
-
     out.mkdir(parents=True, exist_ok=True)
     lines = [f"{cid} {m} {w} {h} {_num(*p)}" for cid, (m, w, h, p) in cameras.items()]
     (out / "cameras.txt").write_text("# CAMERA_ID MODEL WIDTH HEIGHT PARAMS\n" + "\n".join(lines) + "\n")
@@ -125,12 +113,14 @@ def write_text_model(rec, out: Path, cameras: dict, camera_of: dict, turned: set
         pose = im.cam_from_world()
         R, t = np.asarray(pose.rotation.matrix()), np.asarray(pose.translation)
         xy = np.array([p.xy for p in im.points2D], dtype=np.float64).reshape(-1, 2)
+        cid = im.camera_id
         if im.name in turned:
             R, t = portrait_pose(R, t)
-            xy = portrait_from_sensor(xy, rec.camera(im.camera_id).height)
+            xy = portrait_from_sensor(xy, rec.camera(cid).height)
+            cid = portrait_id[cid]
         qx, qy, qz, qw = np.asarray(pycolmap.Rotation3d(R).quat, dtype=np.float64)  # pycolmap: x, y, z, w
         ids = [p.point3D_id if p.has_point3D() else -1 for p in im.points2D]
-        lines.append(f"{i} {_num(qw, qx, qy, qz, *t)} {camera_of[i]} {im.name}")
+        lines.append(f"{i} {_num(qw, qx, qy, qz, *t)} {cid} {im.name}")
         lines.append(" ".join(f"{_num(x, y)} {pid}" for (x, y), pid in zip(xy.tolist(), ids)))
     (out / "images.txt").write_text("# IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME / POINTS2D[] as (X, Y, POINT3D_ID)\n"
                                     + "\n".join(lines) + "\n")
