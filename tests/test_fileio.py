@@ -13,6 +13,10 @@ from doodle.strokes.superquadric import quaternion_to_matrix
 from helpers import random_strokes
 
 
+#: Where a version 5 file's flags byte lies: after the head (8 bytes), the frame (68) and the quantisation (42).
+_FLAGS_AT = 8 + 68 + 42
+
+
 def _assert_close(a, b, tol, normal_deg=0.01):
     assert np.abs(a.curves.control_points - b.curves.control_points).max(initial=0) <= tol
     assert (a.curves.normals is None) == (b.curves.normals is None)
@@ -106,19 +110,77 @@ class TestBinary:
     def test_32_curves_8_superquadrics_fit_in_1kb(self):
         assert len(encode(random_strokes(n_curves=32, n_sq=8))) <= 1024
 
-    def test_face_normals_cost_6_bytes_a_curve(self):
+    def test_face_normals_cost_13_bits_an_end_where_both_faces_agree(self):
+        """A contour curve's two faces are one (its normal, twice): a flag bit and one 12-bit code an end;
+        a crease's two faces: 25 bits."""
         s = random_strokes(n_curves=32, n_sq=8)
         plain = len(encode(s))
         s.curves.normals = np.tile([0.0, 0.0, 1.0], (32, 2, 2, 1))
-        assert len(encode(s)) - plain == 32 * 6 + 1  # 4 normals × 2 × 6 bits, and the flags byte
+        assert len(encode(s)) - plain == 32 * 2 * 13 // 8
+        s.curves.normals[:, :, 1] = [1.0, 0.0, 0.0]
+        assert len(encode(s)) - plain == 32 * 2 * 25 // 8
+        assert np.array_equal(decode(encode(s)).curves.normals, s.curves.normals)
 
-    def test_plain_sets_stay_version_1(self):
-        assert encode(random_strokes(n_curves=3, n_sq=2))[4] == 1
+    def test_contour_gates_cost_an_index_into_their_palette(self):
+        s = random_strokes(n_curves=32, n_sq=8)
+        s.curves.normals = np.tile([0.0, 0.0, 1.0], (32, 2, 2, 1))
+        plain = len(encode(s))
+        s.curves.contour = np.resize([0.0, 0.15, 0.3], 32)
+        assert len(encode(s)) - plain == (8 + 3 * 8 + 32 * 2) // 8  # size, three codes, 2 bits a curve
+        assert np.abs(decode(encode(s)).curves.gates - s.curves.gates).max() <= 0.5 / 255
+
+    def test_chained_curves_cost_their_shape_not_their_place(self):
+        """A joined chain of gently curved cubics: each start is the last end (a bit), chords and handle
+        offsets are small numbers: under half the fixed-width 12 coordinates a curve."""
+        t = np.linspace(0, 2 * np.pi, 4 * 40 - 39)
+        ring = np.stack([np.cos(t), np.sin(t), 0.1 * np.sin(3 * t)], 1)
+        s = random_strokes(n_curves=40, n_sq=0)
+        s.curves.control_points = np.stack([ring[3 * i:3 * i + 4] for i in range(40)])
+        data = encode(s)
+        fixed = 40 * 12 * 12 // 8  # 12-bit coordinates
+        assert len(data) - len(encode(random_strokes(n_curves=0, n_sq=0))) < 0.5 * fixed
+        back = decode(data).curves.control_points
+        assert np.abs(back - s.curves.control_points).max() <= 5e-4 * s.frame.radius
+        assert np.array_equal(back[1:, 0], back[:-1, 3])  # still joined, exactly
+
+    @pytest.mark.parametrize("name", ["v1", "v2", "v4"])
+    def test_files_of_earlier_versions_read_as_written(self, name):
+        """Files written by earlier releases (version 1: no flags, 2: every flag, 4: voxel volumes) read back as
+        the sets they were written from, and rewritten now decode to the very same numbers."""
+        import dataclasses
+        from pathlib import Path
+
+        data = (Path(__file__).parent / "data" / f"binary-{name}.doodleb").read_bytes()
+        assert data[4] == int(name[1])
+        if name == "v1":
+            s = random_strokes(seed=11, n_curves=5, n_sq=2)
+        elif name == "v2":
+            s = random_strokes(seed=12, n_curves=6, n_sq=3, extras=True)
+            s.occluder = s.hull = None
+            cells = np.ones((3, 8, 16), bool)
+            cells[0, 2:4, 5:9] = False
+            s.superquadrics = dataclasses.replace(
+                s.superquadrics, taper=np.array([[0.3, -0.2], [0, 0], [0, 0]]),
+                bend=np.array([[0, 0], [0.4, 0.1], [0, 0]]), outline=np.array([True, False, True]), outline_cells=cells)
+        else:
+            s = random_strokes(seed=13, n_curves=4, n_sq=1, extras=True)
+        old = decode(data)
+        _assert_close(s, old, 5e-4 * s.frame.radius, 5.0)
+        assert np.abs(old.superquadrics.tapers - s.superquadrics.tapers).max() < 1e-3
+        assert np.abs(old.superquadrics.bends - s.superquadrics.bends).max() < 1e-3
+        again = encode(old)
+        assert again[4] == 5
+        new = decode(again)
+        assert np.array_equal(new.curves.control_points, old.curves.control_points)
+        assert np.array_equal(new.superquadrics.translation, old.superquadrics.translation)
+        assert (old.curves.normals is None) or np.array_equal(new.curves.normals, old.curves.normals)
+        assert np.array_equal(new.curves.gates, old.curves.gates)
+        assert (old.hull is None) or np.array_equal(new.hull.occupied, old.hull.occupied)
 
     def test_voxel_volumes_travel_as_raw_bits_in_an_xz_trailer(self):
         s = random_strokes(seed=4, extras=True)
         data = encode(s)
-        assert data[4] == 4
+        assert data[4] == 5 and data[_FLAGS_AT] & 32
         back = decode(data)
         assert np.array_equal(back.hull.occupied, s.hull.occupied)
         assert np.array_equal(back.occluder.occupied, s.occluder.occupied)
@@ -163,6 +225,12 @@ def stroke_sets(draw):
         normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
         normals[rng.random((n, 2, 2)) < 0.2] = 0.0  # "unknown": never hides
         s.curves.normals = normals
+    if n > 1 and draw(st.booleans()):  # joined chains, as a fit writes them
+        joined = np.flatnonzero(rng.random(n - 1) < 0.6) + 1
+        for i in joined:
+            s.curves.control_points[i, 0] = s.curves.control_points[i - 1, 3]
+    if s.curves.normals is not None and draw(st.booleans()):
+        s.curves.contour = rng.choice(np.linspace(0, 1, draw(st.integers(1, 300))), n)
     if m and draw(st.booleans()):
         s.superquadrics.outline = rng.random(m) < 0.5
     if m and draw(st.booleans()):
@@ -174,7 +242,9 @@ def stroke_sets(draw):
 @given(stroke_sets())
 def test_property_valid_files_round_trip(s):
     _assert_close(s, loads(dumps(s)), 1e-6 * max(1.0, float(np.abs(s.frame.center).max()) + s.frame.radius), 0.02)
-    _assert_close(s, decode(encode(s)), 1e-3 * s.frame.radius, 5.0)  # 6-bit octahedral normals: < 4°
+    back = decode(encode(s))
+    _assert_close(s, back, 1e-3 * s.frame.radius, 5.0)  # 6-bit octahedral normals: < 4°
+    assert np.abs(back.curves.gates - s.curves.gates).max(initial=0) <= 0.5 / 255 + 1e-12
 
 
 def _corruptions():

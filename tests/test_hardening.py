@@ -83,19 +83,18 @@ def test_stroke_values_drawing_cannot_handle_are_refused(strokes, tmp_path, edit
 
 def test_binary_trailer_bomb_is_refused(strokes):
     data = bytearray(encode(strokes))
-    (tlen,) = struct.unpack_from("<H", data, len(data) - tlen_guess(data))
+    (tlen,) = struct.unpack_from("<I", data, len(data) - tlen_guess(data))
     bomb = zlib.compress(b"{" + b" " * (64 << 20) + b"}", 9)
-    assert len(bomb) < 65535
-    body = bytes(data[: len(data) - tlen - 2])
+    body = bytes(data[: len(data) - tlen - 4])
     with pytest.raises(StrokeFileError, match="inflates beyond"):
-        decode(body + struct.pack("<H", len(bomb)) + bomb)
+        decode(body + struct.pack("<I", len(bomb)) + bomb)
 
 
 def tlen_guess(data: bytes) -> int:
-    """Offset from the end of the trailer length field (the trailer is last)."""
-    for tlen in range(0, min(len(data), 65536)):
-        if struct.unpack_from("<H", data, len(data) - tlen - 2)[0] == tlen:
-            return tlen + 2
+    """Offset from the end of the trailer length field (u32; the trailer is last)."""
+    for tlen in range(0, len(data) - 3):
+        if struct.unpack_from("<I", data, len(data) - tlen - 4)[0] == tlen:
+            return tlen + 4
     raise AssertionError("no trailer")
 
 
