@@ -60,3 +60,24 @@ def test_what_the_refined_union_gives_up_is_taken_again(monkeypatch):
     # the others stay as the first refinement left them: the new one is refined among them
     for name in ("scale", "shape", "rotation", "translation"):
         assert np.allclose(getattr(sq, name)[:2], getattr(first[0], name), atol=1e-5), name
+
+
+def test_parts_are_split_on_their_box_as_on_the_whole_grid():
+    """:func:`split_parts` works on the parts' box (h-maxima sort every voxel they are given): the labels are
+    those the whole grid gives, a dumbbell in two, a third ball apart in a third."""
+    from scipy import ndimage
+    from skimage.morphology import h_maxima
+    from skimage.segmentation import watershed
+
+    from doodle.fit.volume.abstraction import split_parts
+
+    z, y, x = np.mgrid[:60, :50, :70]
+    ball = lambda c, r: (x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2 <= r * r  # noqa: E731
+    neck = (abs(y - 20) <= 2) & (abs(z - 25) <= 2) & (x >= 20) & (x <= 40)
+    thick = ball((20, 20, 25), 8) | ball((40, 20, 25), 7) | neck | ball((55, 38, 45), 5)
+    dist = ndimage.distance_transform_edt(np.pad(thick, 1))[1:-1, 1:-1, 1:-1]
+    markers, _ = ndimage.label(h_maxima(dist, max(1.0, 0.1 * float(dist.max()))) & thick)
+    whole = watershed(-dist, markers, mask=thick)
+    labels = split_parts(thick)
+    assert np.array_equal(labels, whole) and labels.max() == 3
+    assert not split_parts(np.zeros((4, 4, 4), bool)).any()
