@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .strokes import CurveSet, StrokeSet, SuperquadricSet, dumps, read_strokes
-from .strokes.binary import encode
+from .strokes.binary import BINARY_VERSION, MAGIC, encode
 
 
 def binary_cost(strokes: StrokeSet) -> dict[str, int]:
@@ -28,6 +28,13 @@ def binary_cost(strokes: StrokeSet) -> dict[str, int]:
     return cost
 
 
+def encoding(path: str | Path) -> str:
+    """How a stroke file is stored: ``"json"`` or ``"binary N"`` (its binary version)."""
+    with open(path, "rb") as fh:
+        head = fh.read(len(MAGIC) + 1)
+    return f"binary {head[len(MAGIC)]}" if head[:len(MAGIC)] == MAGIC and len(head) > len(MAGIC) else "json"
+
+
 def describe(path: str | Path) -> dict[str, Any]:
     """Counts, bounding box, byte sizes in both encodings, frame and provenance of a stroke file."""
     strokes: StrokeSet = read_strokes(path)
@@ -46,12 +53,22 @@ def describe(path: str | Path) -> dict[str, Any]:
                                            "occupied": int(vol.occupied.sum())}
            for name, vol in (("occluder", strokes.occluder), ("hull", strokes.hull))},
         "bounding_box": {"min": [round(float(v), 4) for v in lo], "max": [round(float(v), 4) for v in hi]},
+        "encoding": encoding(path),
         "bytes": {"file": Path(path).stat().st_size, "json": len(dumps(strokes).encode()), "binary": len(encode(strokes)),
                   "binary_parts": binary_cost(strokes)},
         "scene": {"up": [round(float(v), 4) for v in f.up], "center": [round(float(v), 4) for v in f.center],
                   "radius": round(float(f.radius), 4)},
         "provenance": strokes.provenance,
     }
+
+
+def _stored(kind: str) -> str:
+    """``kind`` (:func:`encoding`) in words, with how to rewrite an earlier binary version."""
+    if kind == "json":
+        return "JSON"
+    version = int(kind.split()[1])
+    return f"binary version {version}" + (f"; `doodle convert` rewrites it as version {BINARY_VERSION}"
+                                          if version < BINARY_VERSION else "")
 
 
 def format_description(info: dict[str, Any]) -> str:
@@ -71,7 +88,8 @@ def format_description(info: dict[str, Any]) -> str:
           if (v := info.get(name)) is not None],
         f"  bounding box    {bb['min']} .. {bb['max']}",
         f"  scene           center {info['scene']['center']}, radius {info['scene']['radius']}, up {info['scene']['up']}",
-        f"  size            {info['bytes']['file']} B on disk; JSON {info['bytes']['json']} B, binary {info['bytes']['binary']} B",
+        f"  size            {info['bytes']['file']} B on disk ({_stored(info['encoding'])}); JSON {info['bytes']['json']} B, "
+        f"binary {info['bytes']['binary']} B",
         "  binary parts    " + ", ".join(f"{k} {v} B" for k, v in info["bytes"]["binary_parts"].items()
                                          if k != "total" and v),
     ]

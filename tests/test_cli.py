@@ -134,3 +134,15 @@ def test_every_option_has_help_and_commands_come_in_the_order_a_user_meets_them(
               and not ln.startswith("    ")]
     assert listed == list(COMMAND_ORDER)
     assert "..." not in text.split("Commands:")[1]  # no one-line help cut short
+
+
+def test_info_says_how_the_file_is_stored_and_how_to_rewrite_an_earlier_version(runner, tmp_path):
+    old = Path(__file__).parent / "data" / "binary-v2.doodleb"
+    r = runner.invoke(cli, ["info", str(old)])
+    assert r.exit_code == 0 and "on disk (binary version 2; `doodle convert` rewrites it as version 5)" in r.output
+    new = tmp_path / "new.doodleb"
+    assert runner.invoke(cli, ["convert", str(old), str(new)]).exit_code == 0
+    assert json.loads(runner.invoke(cli, ["info", "--json", str(new)]).output)["encoding"] == "binary 5"
+    text = tmp_path / "s.doodle"
+    assert runner.invoke(cli, ["convert", str(new), str(text)]).exit_code == 0
+    assert "on disk (JSON)" in runner.invoke(cli, ["info", str(text)]).output
