@@ -58,7 +58,8 @@ def test_cli_scores_a_folder_of_drawings(snowman_dir: Path, tmp_path: Path):
 
 def test_the_frame_that_cuts_the_object_is_not_its_outline():
     """Silhouette recall counts the outline's pixels, not the frame's edge where the object runs out of the
-    photo: a drawing of the object's outline alone has recall 1 (it was 0.82 with the edge counted)."""
+    photo: a drawing of the object's outline alone has recall 1 (it was 0.82 with the edge counted); and a line
+    drawn along that edge is not precise (the reference line map left the edge in until this release)."""
     from doodle.arrays import silhouette_boundary
     from doodle.evaluate import _view_row
 
@@ -71,3 +72,7 @@ def test_the_frame_that_cuts_the_object_is_not_its_outline():
     image[mask] = 60
     row = _view_row("v", outline, image, mask, 2.0)
     assert row["silhouette_recall"] == 1.0
+    # nor is it a reference line for precision: ink along the frame's edge is on nothing
+    frame_ink = np.zeros_like(mask)
+    frame_ink[63, 20:44] = True
+    assert _view_row("v", frame_ink, image, mask, 2.0)["line_precision"] == 0.0

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ...arrays import silhouette_boundary
 from ...strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 from ...exporters.raster import raster_layer
 
@@ -44,7 +45,7 @@ def silhouette_scores(sq: SuperquadricSet, cameras, masks, size: int = 96, max_v
         u = union_mask(sq, c, samples=32) if len(sq) else np.zeros_like(m)
         union = (u | m).sum()
         ious.append((u & m).sum() / union if union else 1.0)
-        bu, bm = u ^ ndimage.binary_erosion(u), m ^ ndimage.binary_erosion(m)
+        bu, bm = silhouette_boundary(u), silhouette_boundary(m)
         if not bu.any() or not bm.any():
             fs.append(0.0)
             continue

@@ -14,12 +14,14 @@ import torch
 from scipy import ndimage
 from skimage import feature
 
+from ...arrays import silhouette_boundary
 from ...cameras import Camera
 from ...scenes import Scene
 
 
 def line_map(image: np.ndarray, mask: np.ndarray | None, sigma: float = 2.0) -> np.ndarray:
-    """Boolean lines: mask boundary ∪ Canny edges of the image inside the (slightly grown) mask.
+    """Boolean lines: mask boundary (not the frame's edge where the object runs out of the photo) ∪ Canny edges
+    of the image inside the (slightly grown) mask.
 
     Thresholds are quantiles of the gradient magnitude so they adapt to the image's contrast.
     """
@@ -27,7 +29,7 @@ def line_map(image: np.ndarray, mask: np.ndarray | None, sigma: float = 2.0) -> 
     edges = feature.canny(gray, sigma=sigma, low_threshold=0.75, high_threshold=0.9, use_quantiles=True)
     if mask is None:
         return edges
-    boundary = mask ^ ndimage.binary_erosion(mask)
+    boundary = silhouette_boundary(mask)
     inside = ndimage.binary_erosion(mask, iterations=2)
     return boundary | (edges & inside)
 
@@ -104,7 +106,7 @@ def build_targets(scene: Scene, device: str = "cpu", exclude: list[np.ndarray] |
         vv, uu = np.nonzero(use)
         pix.append(torch.tensor(np.stack([uu + 0.5, vv + 0.5], 1), dtype=torch.float32, device=device))
         if m is not None:
-            bv, bu = np.nonzero(m ^ ndimage.binary_erosion(m))
+            bv, bu = np.nonzero(silhouette_boundary(m))
             bpix.append(torch.tensor(np.stack([bu + 0.5, bv + 0.5], 1), dtype=torch.float32, device=device))
     f32 = dict(dtype=torch.float32, device=device)
     return ViewTargets(
