@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from .strokes import CurveSet, StrokeSet, SuperquadricSet, dumps, read_strokes
-from .strokes.binary import BINARY_VERSION, MAGIC, encode
+from .strokes.binary import BINARY_VERSION, MAGIC, encode, stored_version
 
 
 def binary_cost(strokes: StrokeSet) -> dict[str, int]:
@@ -31,8 +31,8 @@ def binary_cost(strokes: StrokeSet) -> dict[str, int]:
 def encoding(path: str | Path) -> str:
     """How a stroke file is stored: ``"json"`` or ``"binary N"`` (its binary version)."""
     with open(path, "rb") as fh:
-        head = fh.read(len(MAGIC) + 1)
-    return f"binary {head[len(MAGIC)]}" if head[:len(MAGIC)] == MAGIC and len(head) > len(MAGIC) else "json"
+        version = stored_version(fh.read(len(MAGIC) + 1))
+    return "json" if version is None else f"binary {version}"
 
 
 def describe(path: str | Path) -> dict[str, Any]:
@@ -66,9 +66,9 @@ def _stored(kind: str) -> str:
     """``kind`` (:func:`encoding`) in words, with how to rewrite an earlier binary version."""
     if kind == "json":
         return "JSON"
-    version = int(kind.split()[1])
-    return f"binary version {version}" + (f"; `doodle convert` rewrites it as version {BINARY_VERSION}"
-                                          if version < BINARY_VERSION else "")
+    # a file this release reads is of its version or an earlier one
+    return kind.replace("binary", "binary version") + (f"; `doodle convert` rewrites it as version {BINARY_VERSION}"
+                                                       if kind != f"binary {BINARY_VERSION}" else "")
 
 
 def format_description(info: dict[str, Any]) -> str:

@@ -322,6 +322,12 @@ def _volume_trailer(data: bytes) -> tuple[dict, dict]:
     return meta, packed
 
 
+def stored_version(data: bytes) -> int | None:
+    """The binary version ``data`` (a stroke file's first bytes, at least five) says it is in; ``None`` for a file
+    that is not binary (JSON)."""
+    return data[len(MAGIC)] if data[:len(MAGIC)] == MAGIC and len(data) > len(MAGIC) else None
+
+
 def decode(data: bytes) -> StrokeSet:
     """Decode bytes from :func:`encode`; every inconsistency raises :class:`StrokeFileError`."""
     try:
