@@ -239,7 +239,7 @@ def _upright_sizes(photos: list[Path]) -> tuple[list[tuple[int, int]], list[Path
 
 def _pose(db: Path, image_dir: Path, photos: list[Path], one_camera: bool, exhaustive: bool, out: Path) -> dict:
     """SIFT features, matches and incremental mapping of ``photos`` (in ``image_dir``) into the database ``db``
-    and the models under ``out``: one camera for all photos, or one per photo."""
+    and the models under ``out``: one camera for all photos, or one per image size (COLMAP's ``AUTO``)."""
     import pycolmap
 
     extraction = pycolmap.FeatureExtractionOptions()
