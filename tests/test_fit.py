@@ -21,7 +21,7 @@ from doodle.fit.gradient.targets import build_targets
 from doodle.scenes import working_scene
 from doodle.samples import load_ground_truth, write_sample
 from doodle.scenes import load_scene
-from doodle.strokes import CurveSet, StrokeSet, read_strokes
+from doodle.strokes import CurveSet, StrokeSet, read_strokes, write_strokes
 
 from helpers_geometry import edge_scores, hole_points, inside_superquadrics, thin_axes
 
@@ -79,6 +79,23 @@ class TestInitialisation:
         assert np.allclose(hull.origin, grid.origin) and hull.voxel == grid.voxel
         assert hull.occupied[3:9, 6:14, 6:14].all() and hull.occupied[21:27, 6:14, 6:14].all()
         assert not hull.occupied[11:19].any()
+
+    def test_an_outline_hull_finer_than_files_hold_is_coarsened_and_reads_back(self, tmp_path):
+        """``--evidence-voxels 320`` carves a grid finer than a stroke file's voxel volumes may be: the fit wrote
+        a file every reader refused ("hull.shape[0]: 320 outside [1, 256]")."""
+        from doodle.fit.volume.carve import VoxelGrid
+        from doodle.fit.volume.hull import outline_hull
+        from doodle.strokes.fileio import MAX_VOXEL_SIDE
+
+        occupied = np.zeros((320, 12, 12), bool)
+        occupied[10:300, 2:10, 2:10] = True
+        hull = outline_hull(VoxelGrid(np.zeros(3), 0.01, occupied.shape, np.eye(3)), occupied)
+        assert max(hull.occupied.shape) <= MAX_VOXEL_SIDE and hull.voxel == pytest.approx(0.02)
+        strokes = StrokeSet(hull=hull)
+        for name in ("h.doodle", "h.doodleb"):
+            write_strokes(tmp_path / name, strokes)
+            back = read_strokes(tmp_path / name).hull
+            assert np.array_equal(back.occupied, hull.occupied) and back.voxel == pytest.approx(hull.voxel)
 
     def test_hull_occluder_is_the_object_a_voxel_in(self, chair_dir):
         """The occluder a fit stores: its voxels lie in the chair (shrunk, the hull does not bulge out of it),

@@ -413,7 +413,11 @@ def _template(kind: str) -> Path:
     import tempfile
 
     if kind not in _TEMPLATES:
+        import atexit
+        import shutil
+
         root = Path(tempfile.mkdtemp(prefix="doodle-fuzz-"))
+        atexit.register(shutil.rmtree, root, ignore_errors=True)  # a session's templates, not the machine's
         if kind in ("colmap", "colmap-text"):
             import pycolmap
 

@@ -17,6 +17,7 @@ import numpy as np
 from scipy import ndimage
 
 from ...scenes import Scene
+from ...strokes.fileio import MAX_VOXEL_SIDE
 from ...strokes.model import Voxels
 from .carve import VoxelGrid, coarsened, project_points
 from .abstraction import thick_part
@@ -82,7 +83,11 @@ def outline_hull(grid: VoxelGrid, occupied: np.ndarray) -> Voxels:
     under three voxels across, which curves draw along their axes (a tripod's legs, drawn by their axis and a
     narrow outline beside it). Held-out F, the hull opened against as carved, same strokes: chair 0.904 →
     0.907, Lego 0.893 → 0.895, tripod 0.965 → 0.959, lamp 0.967 → 0.962, the others within 0.002; opened by
-    two voxels, Lego 0.866 and the tripod 0.936 (the arm's and the legs' outline lost)."""
+    two voxels, Lego 0.866 and the tripod 0.936 (the arm's and the legs' outline lost). A carving finer than
+    the stroke files hold (``--evidence-voxels`` above :data:`~doodle.strokes.fileio.MAX_VOXEL_SIDE`) is
+    coarsened to it first, so that every fit's file reads back."""
+    if max(occupied.shape) > MAX_VOXEL_SIDE:
+        grid, occupied = coarsened(grid, occupied, MAX_VOXEL_SIDE)
     return grid.volume(ndimage.binary_opening(occupied, structure=ndimage.generate_binary_structure(3, 1)))
 
 
