@@ -25,6 +25,7 @@ MANIFEST = """
 [defaults]
 detail = "low"
 evidence_voxels = 64
+abstraction_steps = 40
 views = 3
 size = 96
 frames = 4

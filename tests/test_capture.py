@@ -156,7 +156,7 @@ def test_fit_export_eval_on_a_phone_capture(capture, tmp_path):
     runner = CliRunner()
     out = tmp_path / "s.doodle"
     r = runner.invoke(cli, ["fit", str(cap), "-o", str(out), "--size", "160", "--evidence-size", "160",
-                            "--evidence-voxels", "96", "--sq-iterations", "60"])
+                            "--evidence-voxels", "96", "--sq-iterations", "60", "--abstraction-steps", "40"])
     assert r.exit_code == 0, r.output
     assert "automatic masks" in r.output and (cap / "doodle-masks").is_dir()
     r = runner.invoke(cli, ["export", str(out), "-o", str(tmp_path / "views"), "--cameras", str(cap), "--png",

@@ -25,7 +25,8 @@ from doodle.strokes import CurveSet, StrokeSet, read_strokes, write_strokes
 
 from helpers_geometry import edge_scores, hole_points, inside_superquadrics, thin_axes
 
-QUICK = dict(size=96, evidence_voxels=96, sq_iterations=40, views_per_step=4, checkpoint_every=20)
+QUICK = dict(size=96, evidence_voxels=96, sq_iterations=40, abstraction_steps=40, views_per_step=4,
+             checkpoint_every=20)
 
 
 def quick(**options) -> FitConfig:
@@ -322,6 +323,29 @@ class TestCheckpoints:
         fit(scene, quick(curves=6, superquadrics=0, iterations=60), checkpoint=ckpt, progress=False, log=lambda m: None)
         with pytest.raises(DoodleError, match="curves=6"):
             fit(scene, quick(curves=7, superquadrics=0, iterations=60), checkpoint=ckpt, resume=True, progress=False)
+
+    def test_an_option_newer_than_the_checkpoint_counts_as_its_default(self, tmp_path):
+        """A checkpoint written before ``abstraction_steps`` existed resumes a fit with the default steps (its
+        abstraction was made with them) and refuses one with other steps."""
+        from doodle.fit.state import check_resumable
+
+        old = {"config": {k: v for k, v in FitConfig().to_dict().items() if k != "abstraction_steps"}}
+        check_resumable(old, FitConfig(), tmp_path / "s.ckpt")
+        with pytest.raises(DoodleError, match="abstraction_steps=100, not 40"):
+            check_resumable(old, FitConfig(abstraction_steps=40), tmp_path / "s.ckpt")
+
+    def test_the_abstraction_steps_reach_the_abstraction(self, snowman_dir, monkeypatch):
+        from doodle.fit.volume import abstraction
+
+        class Reached(Exception):
+            pass
+
+        def abstract_volume(*args, steps, **kwargs):
+            raise Reached(steps)
+
+        monkeypatch.setattr(abstraction, "abstract_volume", abstract_volume)
+        with pytest.raises(Reached, match="^7$"):
+            fit(load_scene(snowman_dir), quick(size=64, abstraction_steps=7), progress=False, log=lambda m: None)
 
     def test_resume_without_checkpoint(self, chair_dir, tmp_path):
         with pytest.raises(DoodleError, match="no checkpoint"):

@@ -17,7 +17,7 @@ from doodle.strokes import read_strokes
 from doodle.strokes.binary import encode
 
 #: A default fit, small: the compact abstraction draws the snowman's balls, curves its nose and arms.
-SMALL = ["--size", "64", "--evidence-size", "96", "--evidence-voxels", "64"]
+SMALL = ["--size", "64", "--evidence-size", "96", "--evidence-voxels", "64", "--abstraction-steps", "40"]
 STAGES = ("prepare", "volume", "discover", "superquadrics", "curves", "assemble")
 
 

@@ -177,6 +177,9 @@ class FitConfig:
     sq_iterations: int = option(
         "optimiser", 400, "Steps of the silhouette superquadric stage (--outline hull's growth, a fixed "
         "--superquadrics count).", kind=int, limits=(0, 1_000_000))
+    abstraction_steps: int = option(
+        "optimiser", 100, "Adam steps of each superquadric fit of the volume's abstraction (--superquadrics auto): "
+        "each part's, then the union's.", kind=int, limits=(1, 100_000))
     views_per_step: int = option(
         "optimiser", 8, "Training views per step of the distance-field curve stage.", kind=int, limits=(1, 10_000))
     lr_curves: float = option(

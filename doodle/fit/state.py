@@ -37,7 +37,7 @@ MAX_CHECKPOINT_BYTES = 1 << 30
 #: Options that must match to resume a checkpoint.
 RESUME_KEYS = ("curves", "superquadrics", "max_superquadrics", "size", "seed", "objective", "discover",
                "evidence_size", "evidence_voxels", "discovery_min_gain", "contours", "texture", "outline", "detail",
-               "occluder", "thin", "init")
+               "occluder", "thin", "init", "abstraction_steps")
 
 STAGE_NAMES = ("volume", "discover", "superquadrics", "curves")
 OUTLINE_VIEWS = 24
@@ -276,10 +276,11 @@ def restore(state: FitState, ck: dict) -> None:
 
 def check_resumable(ck: dict, cfg: FitConfig, path: Path) -> None:
     """Refuse a checkpoint made with other options (one line naming the option)."""
-    mine = cfg.to_dict()
+    mine, default = cfg.to_dict(), FitConfig().to_dict()
     for key in RESUME_KEYS:
-        if ck["config"].get(key) != mine[key]:
-            raise DoodleError(f"{path}: checkpoint was made with {key}={ck['config'].get(key)!r}, not "
+        theirs = ck["config"].get(key, default[key])  # an option newer than the checkpoint had its default
+        if theirs != mine[key]:
+            raise DoodleError(f"{path}: checkpoint was made with {key}={theirs!r}, not "
                               f"{mine[key]!r}; use the same options to resume")
 
 

@@ -57,7 +57,8 @@ def run(state: FitState) -> None:
 
         grid, occupied = state.carving.grid, state.carving.occupied
         found = abstract_volume(grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit,
-                                cfg.level.superquadric_gain, seed=cfg.seed, deform=cfg.deform, log=say)
+                                cfg.level.superquadric_gain, steps=cfg.abstraction_steps, seed=cfg.seed,
+                                deform=cfg.deform, log=say)
         sq = SuperquadricParams.from_set(found.superquadrics).to_set()  # as the gradient paths store them (float32)
         plain = None if found.plain is None else SuperquadricParams.from_set(found.plain).to_set()
     else:
