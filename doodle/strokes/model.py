@@ -164,6 +164,15 @@ class SuperquadricSet:
         joined = SuperquadricSet(*(np.concatenate([getattr(s, k) for s in sets]) for k in _PARAMETERS))
         return joined.with_deformation(*(np.concatenate([getattr(s, k) for s in sets]) for k in ("tapers", "bends")))
 
+    def and_occluders(self, occluders: "SuperquadricSet") -> "SuperquadricSet":
+        """This set followed by ``occluders``, which draw no outline; this set's outline flags and cells kept."""
+        if not len(occluders):
+            return self
+        joined = SuperquadricSet.concatenate([self, occluders])
+        cells = None if self.outline_cells is None else np.concatenate(
+            [self.drawn_cells, np.zeros((len(occluders), *OUTLINE_CELLS), bool)])
+        return replace(joined, outline=np.r_[self.drawn, np.zeros(len(occluders), bool)], outline_cells=cells)
+
 
 _PARAMETERS = ("scale", "shape", "rotation", "translation")
 

@@ -66,6 +66,12 @@ def run(state: FitState) -> None:
     if cfg.superquadrics == "auto" and (plan.discover or mode == "abstract"):
         sq = _judge_outlines(state, sq, plain)
         state.judged = True
+        room = cfg.sq_limit - len(sq)
+        if mode == "abstract" and len(found.plates) and room > 0:  # judged with the curves (useful_occluders)
+            plates = found.plates.subset(np.arange(min(len(found.plates), room)))
+            sq = sq.and_occluders(SuperquadricParams.from_set(plates).to_set())
+            say(f"superquadrics: {len(plates)} thin plate{'s' * (len(plates) > 1)} (a chair's back, an ear) "
+                "offered as occluders")
     elif plain is not None:  # not judged: kept plain (a deformation is kept only where it draws better)
         sq = plain
     state.superquadrics = sq

@@ -51,6 +51,7 @@ from ...strokes.superquadric import (canonical, deformation_of, log_inside_outsi
                                      quaternion_to_matrix)
 from ..gradient.params import SuperquadricParams
 from .carve import coarsen
+from .plates import thin_plates
 
 #: Voxels along the longest side of the grid the superquadrics are fitted on.
 WORK_VOXELS = 96
@@ -92,6 +93,8 @@ class Abstraction:
     plain: SuperquadricSet | None = None
     """Where some are tapered or bent: the same set with each deformed one's plain fit in its place (refined
     the same way), for a judge that sees the views to choose part by part; ``None`` otherwise."""
+    plates: SuperquadricSet = field(default_factory=SuperquadricSet)
+    """Flat boxes over the thin part's plates (:mod:`.plates`), to be offered as occluders; none drawn."""
 
 
 def ball(r: int) -> np.ndarray:
@@ -269,9 +272,10 @@ def _abstract(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied: np.n
     radius = max(1, int(round(0.5 * thin * diag / cvox)))
     thick = thick_part(coarse, radius)
     thick_share = float(thick.sum() / max(coarse.sum(), 1))
+    plates = thin_plates(coarse & ~thick, c_origin, cvox, axes, radius, max_count, int(coarse.sum()))
     if thick.sum() < 8:
         log("superquadrics: the volume has no thick part; curves only")
-        return Abstraction(SuperquadricSet(), 0.0, 0, thick_share)
+        return Abstraction(SuperquadricSet(), 0.0, 0, thick_share, plates=plates)
     care = ~(coarse & ~thick)  # thin parts are nobody's: neither inside nor outside
     cells = np.argwhere(care)
     centres = c_origin + (cells * cvox) @ axes
@@ -284,7 +288,7 @@ def _abstract(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied: np.n
                       max_count, min_gain, deform, log)
     take.parts_of(np.zeros(len(cells), bool))
     if not take.found:
-        return Abstraction(SuperquadricSet(), 0.0, take.parts, thick_share)
+        return Abstraction(SuperquadricSet(), 0.0, take.parts, thick_share, plates=plates)
     sq = SuperquadricSet.concatenate(take.found)
     # The parts are found on the working grid; the union is refined on the full one, near its surface, where
     # a voxel of the working grid is more than the 2 px a line may stray (the cow's held-out line precision
@@ -320,7 +324,7 @@ def _abstract(origin: np.ndarray, voxel: float, axes: np.ndarray, occupied: np.n
     iou = _iou((_distance(centres, sq) <= 0).any(axis=0), in_thick)
     log(f"superquadrics: {len(sq)} abstract the volume (IoU {iou:.3f} with its thick part, {thick_share:.0%} of "
         "the hull)")
-    return Abstraction(sq, iou, take.parts, thick_share, plain)
+    return Abstraction(sq, iou, take.parts, thick_share, plain, plates)
 
 
 @dataclass
