@@ -261,6 +261,13 @@ class TestChoice:
         p, r = edge_scores(found.control_points, gt["feature_edges"], 0.04 * scene.frame.radius)
         assert p > 0.75 and r > 0.5, (p, r)  # 12 views at 128 px: coarse; the full-size bars are in bench_fit
         assert found.normals.shape == (len(found.control_points), 2, 2, 3)
+        # the outline budget is spent only once the curves' is, unless always (``--detail high``): the chair's
+        # 64 were not all chosen, so only then are curves added for the outline alone and more of it drawn
+        spent = choose_curves(cand, 64, outline_curves=24, polish=False)
+        always = choose_curves(cand, 64, outline_curves=24, outline_always=True, polish=False)
+        assert len(spent.control_points) < 64
+        assert spent.outline_drawn == choose_curves(cand, 64, polish=False).outline_drawn
+        assert len(always.control_points) > len(spent.control_points) and always.outline_drawn > spent.outline_drawn
 
 
 class TestFacing:

@@ -61,6 +61,10 @@ class DetailLevel:
     open_features: bool = False
     """...closed ones only (rings: an eye, a button, a patch), or open marks as well after every ring (a mouse's
     button seams: at ``medium`` its painted boundaries drawn went 0.692 → 0.859 with them, F 0.987 → 0.975)."""
+    outline_always: bool = False
+    """The outline curves are chosen whether or not the ``curves`` budget is spent (``high``: its 128 are rarely
+    spent, and without this the chair's and ABC-NEF's ``high`` drew fewer curves than ``medium``, 50 against 58
+    and 48 against 54); otherwise only when it is (an object with more lines than the budget holds)."""
     min_salience: float = 0.01
     """...down to this salience (:data:`~doodle.fit.discovery.salience.MIN_SALIENCE` at ``low``): ``medium`` and
     ``high`` draw the secondary lines too — a seam across the object, which its length ranks low (DTU skull's
@@ -74,7 +78,7 @@ DETAIL_LEVELS: dict[str, DetailLevel] = {
                           features=8, open_features=True, min_salience=0.005),
     "high": DetailLevel(curves=AUTO_MAX_CURVES, outline_curves=AUTO_OUTLINE_CURVES, superquadrics=12,
                         superquadric_gain=0.005, curve_gain=0.0005, features=24, open_features=True,
-                        min_salience=0.002),
+                        min_salience=0.002, outline_always=True),
 }
 """``--detail``: at ``medium`` (the default) a stroke file of an object like a teapot or a cow takes under 2 kB."""
 

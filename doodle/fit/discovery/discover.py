@@ -631,8 +631,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
 
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
-                  polish: bool = True, outline_curves: int = 0, whole_outline: float = 0.0, most_outline: int = 0,
-                  features: int = 0, open_features: bool = False, min_salience: float = MIN_SALIENCE,
+                  polish: bool = True, outline_curves: int = 0, outline_always: bool = False,
+                  whole_outline: float = 0.0, most_outline: int = 0, features: int = 0, open_features: bool = False, min_salience: float = MIN_SALIENCE,
                   over=None, occluder=None,
                   occlusion_margin: float = 0.0,
                   log: Callable[[str], None] = lambda m: None) -> Discovery:
@@ -644,7 +644,8 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             off-line ink) is at least this share of all line pixels (over the selection views).
         taken: line pixels already drawn (global ids, e.g. superquadric outlines): curves go elsewhere.
         outline_curves: when ``max_curves`` are chosen and strokes still gain (an object with more lines than
-            the budget holds: Lego's studs, plates and lattice), up to this many more are chosen for the
+            the budget holds: Lego's studs, plates and lattice), or always with ``outline_always`` (the ``high``
+            level's), up to this many more are chosen for the
             outline alone, each while it newly explains :data:`OUTLINE_MIN_GAIN` of the outline pixels (its
             off-line ink counting against it as before): the outline is what makes an object recognisable,
             and the strokes that complete it are the exact ones (contour curves, edges along the silhouette),
@@ -675,7 +676,7 @@ def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.00
             pixel_weight[cand.rim] = OUTLINE_WEIGHT
         chosen, gains = select_strokes(cand.covers, cand.off, max_curves, min_gain * cand.total, taken=taken,
                                        weight=weight, pixel_weight=pixel_weight, smooth=cand.smooth, outline=cand.rim)
-        if outline_curves > 0 and len(chosen) == max_curves and len(cand.rim):
+        if outline_curves > 0 and (len(chosen) == max_curves or outline_always) and len(cand.rim):
             def for_outline(budget: int) -> tuple[list[int], list[float]]:
                 return complete_outline(cand.covers, cand.off, chosen, cand.rim,
                                         sum(ev.lines[v].size for v in cand.views), budget,
