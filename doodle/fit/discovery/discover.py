@@ -632,8 +632,8 @@ def find_candidates(scene: Scene, max_voxels: int = 192, threshold: float = 0.15
 
 def choose_curves(cand: Candidates, max_curves: int = 96, min_gain: float = 0.0005, taken: np.ndarray | None = None,
                   polish: bool = True, outline_curves: int = 0, outline_always: bool = False,
-                  whole_outline: float = 0.0, most_outline: int = 0, features: int = 0, open_features: bool = False, min_salience: float = MIN_SALIENCE,
-                  over=None, occluder=None,
+                  whole_outline: float = 0.0, most_outline: int = 0, features: int = 0, open_features: bool = False,
+                  min_salience: float = MIN_SALIENCE, over=None, occluder=None,
                   occlusion_margin: float = 0.0,
                   log: Callable[[str], None] = lambda m: None) -> Discovery:
     """Choose among the candidates (greedy marginal coverage, see :func:`select_strokes`), polish the chosen

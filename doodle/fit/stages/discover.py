@@ -78,7 +78,8 @@ def choose_beside(state: FitState, sq: SuperquadricSet, polish: bool, log=lambda
     taken = outline_pixel_ids(cand, sq, state.frame, max(1, round(1.5 * ratio)), state.occluder) \
         if sq.drawn.any() else None
     return choose_curves(cand, cfg.max_curves, cfg.min_gain, taken, polish=polish, outline_curves=cfg.outline_curves,
-                         outline_always=cfg.level.outline_always, whole_outline=cfg.whole_outline, most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
+                         outline_always=cfg.level.outline_always, whole_outline=cfg.whole_outline,
+                         most_outline=AUTO_OUTLINE_CURVES, features=cfg.features,
                          over=sq, occluder=state.occluder,
                          occlusion_margin=DrawOptions.occlusion_margin * state.frame.radius,
                          open_features=cfg.level.open_features,

@@ -7,8 +7,10 @@ in two directions and thin in the third is such a plate; a flat box over it draw
 lies behind it. Each plate is offered as an occluder only: the fit keeps the ones that agree with the hull on
 what the views see (:func:`~doodle.fit.volume.outlines.useful_occluders`), as it does the abstraction's own.
 
-The box comes from the plate's voxels' principal axes: a uniform slab of half-extent ``a`` has a standard
-deviation of ``a / √3`` along each of its axes.
+The box lies on the plate's principal axes, through the middle of its voxels: across the plate it is a voxel
+thick (a visual hull overstates a plate's thickness where no view sees it edge-on, and a sheet hides what is
+behind it as well as a slab does), along it it spans the voxels' 1st to 99th percentiles less a voxel each
+side, so that the plate's own edges stay in front of it and drawn.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ FLATNESS = 3.0
 #: ... and when it is at least this many times as wide as the thin parts' threshold width (``2 · radius``
 #: voxels): a strip barely wider than a leg hides nothing a curve along it does not draw.
 BREADTH = 2.0
-#: ε of the boxes: square-edged (a plate's corners are its own), smooth enough for Newton on its outline.
+#: ε of the boxes: square-edged, as a plate is (its corners hide what a rounded one would show).
 BOX_SHAPE = (0.2, 0.2)
 #: A voxel is in a sheet where its neighbourhood's second-largest variance is this many times its smallest
 #: (spreads 2 : 1; :func:`planar`).
@@ -83,9 +85,8 @@ def thin_plates(thin: np.ndarray, origin: np.ndarray, voxel: float, axes: np.nda
         local = (pts - centre) @ frame
         lo, hi = np.percentile(local, [1, 99], axis=0)
         centre = centre + frame @ (0.5 * (lo + hi))
-        # inside the plate's own edges, so that they stay drawn; and half the hull's thickness, which a visual
-        # hull overstates where no view sees the plate edge-on
-        half = np.maximum(0.5 * (hi - lo) - np.array([1.0, 1.0, 0.5 * (hi - lo)[2] / voxel]) * voxel, 0.5 * voxel)
+        half = np.maximum(0.5 * (hi - lo) - voxel, 0.5 * voxel)  # inside the plate's own edges (module doc)
+        half[2] = 0.5 * voxel  # a voxel thick, through the plate's middle
         rows.append((half, matrix_to_quaternion(frame), centre))
         if len(rows) == limit:
             break
