@@ -47,3 +47,24 @@ def test_occluders_keep_the_outline_flags_and_cells_of_the_set_before():
     assert len(both) == 3 and both.drawn.tolist() == [True, False, False]
     assert both.drawn_cells[0].all() and not both.drawn_cells[2].any()
     assert a.and_occluders(SuperquadricSet()) is a
+
+
+def test_a_sign_on_a_post_keeps_its_board_as_an_occluder():
+    """A board on a post has no thick part: no superquadric draws it, and its board is offered as an occluder and
+    kept by the judge (it hides what the hull hides): one superquadric that draws nothing, over the board."""
+    from helpers import render_scene
+
+    from doodle.fit import FitConfig, fit
+    from doodle.samples.primitives import Box
+
+    board = Box(np.array([0.0, 0, 0.3]), half=np.array([0.6, 0.03, 0.4]))
+    post = Box(np.array([0.0, 0, -0.45]), half=np.array([0.05, 0.05, 0.35]))
+    logs = []
+    sq = fit(render_scene([board, post], n=16, size=128), FitConfig(size=128, abstraction_steps=40), progress=False,
+             log=logs.append).strokes.superquadrics
+    assert any("1 thin plate" in m for m in logs), logs
+    assert len(sq) == 1 and not sq.drawn.any()
+    assert np.linalg.norm(sq.translation[0] - board.center) < 0.05
+    thin_axis = quaternion_to_matrix(sq.rotation[0])[:, 2]
+    assert abs(thin_axis[1]) > 0.98 and sq.scale[0, 2] < 0.05
+    assert np.allclose(np.sort(sq.scale[0, :2]), [0.4, 0.6], rtol=0.1)  # the board's half-extents (a hull's)
