@@ -63,6 +63,8 @@ BINARY_VERSION = 5
 VOLUMES = ("occluder", "hull")
 NORMAL_BITS = 6
 GATE_BITS = 8
+#: A contour gate's top code: codes 0 to this stand for gates 0 to 1.
+_GATE_TOP = 2**GATE_BITS - 1
 #: Bits of each tapering factor and bend component; ``2**DEFORM_BITS − 2`` steps over a symmetric range, so
 #: the middle code is exactly zero (an undeformed superquadric beside a deformed one stays undeformed).
 DEFORM_BITS = 12
@@ -138,7 +140,7 @@ def _read_normals(reader: BitReader, n: int) -> np.ndarray:
 
 def _gate_codes(gates: np.ndarray) -> list[np.ndarray]:
     """Version 5's gates: a palette of the codes used, and an index into it per curve."""
-    codes = _quantise(np.clip(gates, 0.0, 1.0), 0.0, 1.0 / (2**GATE_BITS - 1), GATE_BITS).astype(np.int64)
+    codes = _quantise(np.clip(gates, 0.0, 1.0), 0.0, 1.0 / _GATE_TOP, GATE_BITS).astype(np.int64)
     palette, index = np.unique(codes, return_inverse=True)
     return [pack(np.array([len(palette) - 1]), GATE_BITS), pack(palette, GATE_BITS),
             pack(index, _index_bits(len(palette)))]
@@ -150,7 +152,7 @@ def _read_gates(reader: BitReader, n: int) -> np.ndarray:
     index = reader.take(n, _index_bits(size)).astype(np.int64)
     if index.size and index.max() >= size:
         raise ValueError("contour gate index beyond its palette")
-    return palette[index] / (2**GATE_BITS - 1)
+    return palette[index] / _GATE_TOP
 
 
 def _index_bits(size: int) -> int:
@@ -412,7 +414,7 @@ def _decode(data: bytes) -> StrokeSet:
     drawn = take(m, 1).astype(bool) if flags & 2 else np.ones(m, bool)
     cells = take(m * N_CELLS, 1).astype(bool).reshape(m, *OUTLINE_CELLS) if flags & 4 else None
     if flags & 8:
-        curves_doc["contour"] = (_read_gates(reader, n) if compact else take(n, GATE_BITS) / (2**GATE_BITS - 1)).tolist()
+        curves_doc["contour"] = (_read_gates(reader, n) if compact else take(n, GATE_BITS) / _GATE_TOP).tolist()
     tapers = _deform_values(take(m * 2, DEFORM_BITS).reshape(m, 2), TAPER_LIMIT) if flags & 16 else np.zeros((m, 2))
     bends = _deform_values(take(m * 2, DEFORM_BITS).reshape(m, 2), BEND_LIMIT) if flags & 16 else np.zeros((m, 2))
     bends *= np.minimum(1.0, BEND_LIMIT / np.maximum(np.linalg.norm(bends, axis=1, keepdims=True), 1e-12))

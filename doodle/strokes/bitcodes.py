@@ -11,6 +11,8 @@ Bits are most significant first, as ``numpy.packbits`` packs them.
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 #: Longest run of leading zeros a reader accepts: values up to 2⁴⁰ (positions use at most 32 bits, deltas 33).
@@ -77,8 +79,13 @@ class BitReader:
 
     def __init__(self, bits: np.ndarray) -> None:
         self.bits = np.asarray(bits, np.uint8)
-        self.text = (self.bits + np.uint8(48)).tobytes().decode("ascii")
         self.pos = 0
+
+    @cached_property
+    def text(self) -> str:
+        """The bits as ``"0"``/``"1"`` text, where :meth:`golomb` finds a code's leading zeros: made on its first
+        use (a file before version 5, or without curves, reads fixed-width fields only)."""
+        return (self.bits + np.uint8(48)).tobytes().decode("ascii")
 
     @property
     def left(self) -> int:
