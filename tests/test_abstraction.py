@@ -81,3 +81,28 @@ def test_parts_are_split_on_their_box_as_on_the_whole_grid():
     labels = split_parts(thick)
     assert np.array_equal(labels, whole) and labels.max() == 3
     assert not split_parts(np.zeros((4, 4, 4), bool)).any()
+
+
+def test_a_part_keeps_the_start_that_explains_it_best_whatever_the_sample():
+    """Each part's starts are fitted on a sample of 2,000 of its points; the one kept is the one whose IoU with
+    all of the part is highest (the sampled loss favoured another with some samples). The carpet cow's hull
+    (working grid, from its automatic masks, ``tests/data/carpet-cow-hull.npz``) is first split into one part,
+    its body with its legs and head: chosen by the sampled loss, its fit explained 0.709 of it with one of these
+    two seeds (0.728-0.750 over six seeds by the IoU)."""
+    import torch
+
+    saved = np.load("tests/data/carpet-cow-hull.npz")
+    occupied = np.unpackbits(saved["occupied"])[:int(np.prod(saved["shape"]))].reshape(saved["shape"]).astype(bool)
+    thick = abstraction.thick_part(occupied, 3)
+    labels = abstraction.split_parts(thick)
+    first = labels == np.argmax(np.bincount(labels.ravel())[1:]) + 1
+    assert first.sum() > 0.9 * thick.sum()  # the body, legs and head are one part
+    care = ~(occupied & ~thick)
+    ious = []
+    with abstraction.one_torch_thread():
+        for seed in (0, 3):
+            torch.manual_seed(seed)
+            fits = abstraction._fit_parts([first], thick, np.zeros_like(thick), care, np.zeros(3), 1.0, np.eye(3),
+                                          0.5, 3, 100, np.random.default_rng(seed))
+            ious.append(fits[0][1])
+    assert min(ious) > 0.72, ious

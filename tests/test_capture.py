@@ -311,15 +311,11 @@ def test_a_clipped_highlight_the_cut_gave_away_is_object_and_a_hole_through_the_
     assert not fill_highlights(cut & ~rim, backdrop, floor, shadow, around)[rim].any()
 
 
-def test_the_carpet_the_hulls_chunk_holds_between_legs_is_cut_away_by_its_colour():
-    from doodle.scenes.automask.cut import (
-        background_like,
-        colour_bins,
-        histogram,
-        hull_cut,
-        textured_like_floor,
-        view_background,
-    )
+def _legged_object_on_a_carpet():
+    """A view of a body on two legs over a patterned carpet, the hull's projection holding a chunk of carpet
+    between the legs (every view sees carpet there): ``image, body, legs, shadow, object_uv, background_uv,
+    unlike`` (the pixels coloured like the background, :func:`~doodle.scenes.automask.cut.background_like`)."""
+    from doodle.scenes.automask.cut import background_like, colour_bins, histogram, view_background
 
     rng = np.random.default_rng(0)
     H, W = 120, 160
@@ -332,15 +328,22 @@ def test_the_carpet_the_hulls_chunk_holds_between_legs_is_cut_away_by_its_colour
     image[30:36, 70:80] = 255  # a clipped highlight on the body
     image = np.clip(image, 0, 255).astype(np.uint8)
     obj = body | legs
-    # the hull's projection: every view sees carpet between the legs, so the hull holds a chunk there
     shadow = np.zeros((H, W), bool)
     shadow[20:100, 40:120] = True
     shadow &= (yy < 60) | ((xx >= 48) & (xx < 112))
-    gap = shadow & ~obj
     object_uv = np.argwhere(body)[::37][:, ::-1] + 0.5
     far = ~np.pad(np.ones((H - 40, W - 40), bool), 20)
     background_uv = np.argwhere(far)[::53][:, ::-1] + 0.5
     unlike = background_like(image, histogram(colour_bins(image)[obj][::3]), view_background(image, far, background_uv))
+    return image, body, legs, shadow, object_uv, background_uv, unlike
+
+
+def test_the_carpet_the_hulls_chunk_holds_between_legs_is_cut_away_by_its_colour():
+    from doodle.scenes.automask.cut import hull_cut, textured_like_floor
+
+    image, body, legs, shadow, object_uv, background_uv, unlike = _legged_object_on_a_carpet()
+    obj = body | legs
+    gap = shadow & ~obj
     assert unlike[gap].mean() > 0.95 and not unlike[obj].any()  # the highlight has no colour: not the carpet's
     kept = hull_cut(image, shadow, object_uv, background_uv, 4.0)
     cut = hull_cut(image, shadow, object_uv, background_uv, 4.0, unlike=unlike)
@@ -355,6 +358,23 @@ def test_the_carpet_the_hulls_chunk_holds_between_legs_is_cut_away_by_its_colour
     plain = image.copy()
     plain[~obj] = (150, 30, 40)
     assert not textured_like_floor(plain, shadow, near).any()
+
+
+def test_the_floor_cue_on_the_objects_own_feet_does_not_cut_them_off():
+    """Just above the support an object's faces agree with the floor under them (the other views see the same
+    face there), so the floor cue (:mod:`doodle.scenes.automask.floor`) also fires on the feet: within the hull's
+    projection it cuts only what is coloured like the background (a carpet parcel's lower face was lost)."""
+    from doodle.scenes.automask.cut import hull_cut
+
+    image, body, legs, shadow, object_uv, background_uv, unlike = _legged_object_on_a_carpet()
+    yy, xx = np.mgrid[:image.shape[0], :image.shape[1]]
+    feet = legs & (yy >= 88)
+    floor = (~ndimage.binary_dilation(shadow, iterations=6)) | feet  # the carpet round it, and the feet
+    cut = hull_cut(image, shadow, object_uv, background_uv, 4.0, floor=floor, unlike=unlike)
+    assert cut[feet].mean() > 0.95 and cut[legs].mean() > 0.95
+    assert not (cut & ~ndimage.binary_dilation(shadow, iterations=4)).any()
+    # the floor cue alone (no colour to tell) still cuts there, as it did everywhere in the rim before
+    assert hull_cut(image, shadow, object_uv, background_uv, 4.0, floor=floor)[feet].mean() < 0.5
 
 
 def test_the_object_region_is_the_cluster_the_cameras_aim_at(capture):
