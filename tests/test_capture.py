@@ -551,6 +551,29 @@ def test_a_part_that_stands_out_of_the_hull_is_thin_and_a_fringe_round_it_is_not
     assert protrusions(VoxelHull(ball | sheet, fine.origin, 1.0), body).occupied.any()
 
 
+def test_floor_seen_in_the_crease_under_a_ball_on_a_box_is_no_thin_part():
+    """The generous first masks agree on the floor seen in the crease between a box and the ball resting on it
+    (the carpet parcel's): a skirt standing out of the body as far as an ear does, but lying along it its whole
+    length, where an ear joins it at a base (:data:`doodle.scenes.automask.thin.MAX_BASE`)."""
+    from doodle.scenes.automask import thin
+    from doodle.scenes.automask.hull import VoxelHull
+
+    n = 80
+    g = np.arange(n) - n / 2 + 0.5
+    X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
+    box = (np.abs(X) <= 36) & (np.abs(Y) <= 36) & (Z >= -39) & (Z <= -14)
+    ball = np.sqrt(X ** 2 + Y ** 2 + (Z - 10) ** 2) <= 24
+    body = VoxelHull(box | ball, np.full(3, g[0]), 1.0)
+    skirt = (np.hypot(X, Y) <= 24) & (Z > -14) & (Z < 10) & (X > 0) & (np.abs(Y) < 4) & ~body.occupied
+    ear = (np.hypot(X, Z - 25) <= 1.5) & (Y > 0) & (Y <= 34) & ~body.occupied
+    fine = VoxelHull(body.occupied | skirt | ear, body.origin, 1.0)
+    found = thin.protrusions(fine, body).occupied
+    assert not found[skirt].any() and found[ear & (Y > 24)].all()
+    # the skirt reaches out as far as a thin part must (6 voxels): only its base tells it from one
+    reach = ndimage.distance_transform_edt(~body.occupied)
+    assert reach[skirt].max() >= thin.MIN_OUT
+
+
 def _solid_masks(cams, inside, box, count=200_000):
     """Each camera's mask of the solid ``inside(points) -> bool`` in ``box`` (lo, hi): random points, splatted."""
     pts = np.random.default_rng(1).uniform(*box, (count, 3))
