@@ -46,12 +46,12 @@ def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray],
                 fringe: int = FRINGE, min_out: int = MIN_OUT) -> VoxelHull:
     """The voxels of ``fine`` that stand out of ``body`` (on the same grid) as a thin part does: the pieces of
     it farther than ``fringe`` voxels from ``body`` that reach at least ``min_out`` voxels out, hold at most
-    :data:`MAX_PART` of ``body``'s volume, join it at a base (:data:`MAX_BASE`) and do not come down to the support (within ``fringe + 1`` voxels of
-    it by ``height``, world points → height above the support: a patch of floor the generous masks agree on
-    beside the object's foot, rising a few voxels up its side, is no thin part; a thin part standing on the
-    floor cannot be told from one), with what joins them to ``body`` (``fine``'s voxels within ``fringe + 1``
-    of them). A piece must start where a fringe ends (come within ``fringe + 1.5``
-    voxels of ``body``): what floats apart is no part of the object."""
+    :data:`MAX_PART` of ``body``'s volume, join it at a base (:data:`MAX_BASE`) and do not come down to the
+    support (within ``fringe + 1`` voxels of it by ``height``, world points → height above the support: a patch
+    of floor the generous masks agree on beside the object's foot, rising a few voxels up its side, is no thin
+    part; a thin part standing on the floor cannot be told from one), with what joins them to ``body``
+    (``fine``'s voxels within ``fringe + 1`` of them). A piece must start where a fringe ends (come within
+    ``fringe + 1.5`` voxels of ``body``): what floats apart is no part of the object."""
     inside = body.occupied
     out = fine.occupied & ~inside
     if not out.any() or not inside.any():
@@ -65,8 +65,10 @@ def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray],
     size = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     near = np.asarray(ndimage.minimum(reach, labels, index))  # attached: it starts where the fringe ends
     ok = (far >= min_out) & (near <= fringe + 1.5) & (size <= MAX_PART * inside.sum())
+    rim = out & (reach <= fringe + 1)
+    boxes = ndimage.find_objects(labels)
     for k in np.flatnonzero(ok):
-        ok[k] = _base(labels, k + 1, out & (reach <= fringe + 1), fringe) <= MAX_BASE * size[k]
+        ok[k] = _base(labels, k + 1, boxes[k], rim, fringe) <= MAX_BASE * size[k]
     if height is not None and ok.any():
         h = height(fine.origin + np.argwhere(labels > 0) * fine.voxel)
         ok &= np.asarray(ndimage.minimum(h, labels[labels > 0], index)) > (fringe + 1) * fine.voxel
@@ -74,10 +76,9 @@ def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray],
     return VoxelHull(ndimage.binary_dilation(parts, iterations=fringe + 1) & out, fine.origin, fine.voxel)
 
 
-def _base(labels: np.ndarray, k: int, rim: np.ndarray, fringe: int) -> int:
+def _base(labels: np.ndarray, k: int, piece: tuple[slice, ...], rim: np.ndarray, fringe: int) -> int:
     """Voxels of ``rim`` (what stands out of the body within its fringe) within ``fringe + 1`` of piece ``k``
-    of ``labels``: what joins the piece to the body."""
-    piece = ndimage.find_objects((labels == k).astype(np.int8))[0]
+    of ``labels`` (its box ``piece``): what joins the piece to the body."""
     box = tuple(slice(max(b.start - fringe - 2, 0), b.stop + fringe + 2) for b in piece)
     grown = ndimage.binary_dilation(labels[box] == k, iterations=fringe + 1)
     return int((grown & rim[box]).sum())
