@@ -227,13 +227,13 @@ class StrokeSet:
         return len(self.curves) == 0 and len(self.superquadrics) == 0
 
     def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned box of the curve control points and superquadric extents (a safe bound)."""
+        """Axis-aligned box of the curve control points (which hold each Bézier) and the superquadrics'
+        world boxes (:func:`~doodle.strokes.superquadric.world_boxes`)."""
         pts = [self.curves.control_points.reshape(-1, 3)]
         if len(self.superquadrics):
-            from .superquadric import bounding_radius
+            from .superquadric import world_boxes
 
-            reach = bounding_radius(self.superquadrics)[:, None]  # bounding sphere
-            pts += [self.superquadrics.translation - reach, self.superquadrics.translation + reach]
+            pts += list(world_boxes(self.superquadrics))
         allp = np.concatenate(pts, axis=0)
         if allp.size == 0:
             c = np.asarray(self.frame.center, dtype=float)

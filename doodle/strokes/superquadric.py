@@ -186,6 +186,33 @@ def bounding_radius(sq) -> np.ndarray:
     return reach * bound_factor(sq.tapers, sq.bends) if len(sq) and sq.deformed.any() else reach
 
 
+def world_boxes(sq, grid: tuple[int, int] = (33, 64)) -> tuple[np.ndarray, np.ndarray]:
+    """``(M, 3)`` lower and ``(M, 3)`` upper corners of each superquadric's axis-aligned box in the world. A plain
+    one's holds the corners of its local box ``|x_i| ≤ a_i`` (a safe bound); a deformed one's holds its surface
+    sampled on a ``grid`` of η × ω, grown by 2 % of ``|a|`` for what the samples step over. The bending sphere
+    of :func:`bounding_radius` may be several times larger (a bent part of DTU's skull, 0.6 across, reached
+    2.6 from the centre and put a training camera "inside" the object)."""
+    if not len(sq):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    R = quaternion_to_matrix(np.asarray(sq.rotation, float))
+    corners = np.stack(np.meshgrid(*[[-1.0, 1.0]] * 3, indexing="ij"), -1).reshape(-1, 3)
+    samples = [corners * a for a in sq.scale]
+    margin = np.zeros(len(sq))
+    if sq.deformed.any():
+        eta, omega = np.meshgrid(np.linspace(-np.pi / 2, np.pi / 2, grid[0]), np.linspace(-np.pi, np.pi, grid[1]),
+                                 indexing="ij")
+        b = (slice(None), None, None)  # each superquadric over the whole grid
+        deformation = tuple(d[b] for d in deformation_of(sq))
+        p, _ = deformed_surface_points_at(eta, omega, sq.scale[b], sq.shape[b], deformation)
+        for i in np.flatnonzero(sq.deformed):
+            samples[i] = p[i].reshape(-1, 3)
+        margin = np.where(sq.deformed, 0.02 * np.linalg.norm(sq.scale, axis=1), 0.0)
+    world = [x @ R[i].T + sq.translation[i] for i, x in enumerate(samples)]
+    lo = np.stack([w.min(axis=0) for w in world]) - margin[:, None]
+    hi = np.stack([w.max(axis=0) for w in world]) + margin[:, None]
+    return lo, hi
+
+
 def union_log_inside_outside(
     points: torch.Tensor, scale: torch.Tensor, shape: torch.Tensor, rotation: torch.Tensor, translation: torch.Tensor,
     deformation: tuple | None = None,
