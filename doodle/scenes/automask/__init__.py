@@ -62,7 +62,7 @@ MAX_COVER = 0.75
 surroundings."""
 MIN_AGREEMENT = 0.7
 """Masks whose median IoU with the hull's projection is under this disagree between views: no one object."""
-REVISION = 4
+REVISION = 5
 """Of how masks are made: part of every saved folder's :func:`fingerprint`, raised when a change makes other
 masks from the same photos (2: overexposed holes filled, a textured floor's colours cut from the hull's chunk;
 3: the floor cue cuts into the hull's projection only where the colour is the background's; 4: a thin part

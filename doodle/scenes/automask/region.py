@@ -25,6 +25,12 @@ from ..scene import Scene, closest_point_to_axes
 
 PLANE_TOL = 0.01
 """Points within this share of the scene radius of the support plane lie on it."""
+LOCAL_REACH = 0.5
+"""When no support is found among triples drawn anywhere, more are drawn (:data:`FALLBACK_DRAWS` times as many),
+and as many within this share of the scene radius of one another (:func:`_local_triples`)."""
+FALLBACK_DRAWS = 10
+PLANE_CANDIDATES = 5
+"""Planes tried as the support, most points first: the skull's base, under its table's, is no support."""
 
 
 @dataclass
@@ -77,10 +83,11 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
                   ) -> tuple[np.ndarray, float] | None:
     """The plane the object stands on: ``(unit normal towards the cameras, offset)``, or ``None``.
 
-    RANSAC over ``points``: a hypothesis counts when at least 90 % of the cameras and the fixation point
+    RANSAC over ``points`` (triples drawn anywhere; when none is on a support, also drawn near one another,
+    :func:`_local_triples`): a hypothesis counts when at least 90 % of the cameras and the fixation point
     ``focus`` lie above it and at most 5 % of the points lie below it (a floor has nothing under it; a plane
-    through the object has half of it below); the one with most points within :data:`PLANE_TOL` of ``radius``
-    wins, when at least 20 points and 3 % of them lie on it (a plain paper or table gives few features: the
+    through the object has half of it below); the ones with most points within :data:`PLANE_TOL` of ``radius``
+    are tried in turn (:data:`PLANE_CANDIDATES`), each while at least 20 points and 3 % of them lie on it (a plain paper or table gives few features: the
     object may give many more). It is the support, not the object's own base, when its points spread beyond
     the points above it and continue out of the photos (among ``everything``, when given, they come within 3 %
     of the frame's edge in half the views): a base plate twice as wide as the object on it and framed by every
@@ -91,28 +98,25 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
     rng = np.random.default_rng(seed)
     tol = PLANE_TOL * radius
     eyes = np.array([c.center for c in cameras])
-    tri = points[rng.integers(0, len(points), (iterations, 3))]
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(normals, axis=1)
-    ok = length > 1e-12
-    normals, tri = normals[ok] / length[ok, None], tri[ok]
-    offsets = np.einsum("ij,ij->i", normals, tri[:, 0])
-    flip = ((eyes @ normals.T - offsets) > 0).mean(axis=0) < 0.5  # orient each towards the cameras
-    normals[flip], offsets[flip] = -normals[flip], -offsets[flip]
-    best, best_count = None, 0
-    for start in range(0, len(normals), 256):  # hypotheses in batches: (batch, points) heights
-        n, d = normals[start:start + 256], offsets[start:start + 256]
-        h = points @ n.T - d
-        count = (np.abs(h) < tol).sum(axis=0)
-        valid = (((eyes @ n.T - d) > 0).mean(axis=0) >= 0.9) & ((h < -3 * tol).mean(axis=0) <= 0.05) \
-            & (focus @ n.T - d > -tol)
-        count = np.where(valid, count, 0)
-        k = int(np.argmax(count))
-        if count[k] > best_count:
-            best, best_count = (n[k], float(d[k])), int(count[k])
-    if best is None or best_count < max(20, 0.03 * len(points)):
-        return None
-    n, d = best
+    least = max(20, 0.03 * len(points))
+    anywhere = points[rng.integers(0, len(points), (iterations, 3))]
+    for fallback in (False, True):
+        if fallback:  # a support that gave few of the points: more triples, and triples near one another
+            tri = np.concatenate([points[rng.integers(0, len(points), (FALLBACK_DRAWS * iterations, 3))],
+                                  _local_triples(points, LOCAL_REACH * radius, iterations, rng)])
+        for n, d, count in _planes(tri if fallback else anywhere, points, eyes, focus, tol):
+            if count < least:
+                break
+            found = _as_support(n, d, points, cameras, tol, everything)
+            if found is not None:
+                return found
+    return None
+
+
+def _as_support(n: np.ndarray, d: float, points: np.ndarray, cameras: list[Camera], tol: float,
+                everything: np.ndarray | None) -> tuple[np.ndarray, float] | None:
+    """The plane ``n · p = d`` refitted to the ``points`` on it, when it is the support (see
+    :func:`support_plane`), else ``None``."""
     on = np.abs(points @ n - d) < tol
     centroid = points[on].mean(axis=0)  # refit on its inliers (least squares), kept facing the cameras
     normal = np.linalg.svd(points[on] - centroid)[2][-1]
@@ -135,6 +139,48 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
     if reaches_border(pool[np.abs(pool @ n - d) < tol], cameras) < 0.5:
         return None  # framed by the photos like the object: a base plate, not the table
     return n, d
+
+
+def _planes(tri: np.ndarray, points: np.ndarray, eyes: np.ndarray, focus: np.ndarray, tol: float,
+            most: int = PLANE_CANDIDATES) -> list[tuple[np.ndarray, float, int]]:
+    """Up to ``most`` distinct planes through the triples ``tri`` ``(T, 3, 3)``, each facing the cameras
+    (``eyes``) and passing :func:`support_plane`'s tests, as ``(normal, offset, points within tol)``, most
+    points first. Two are one when their normals are within 5° and their offsets within ``3 tol``."""
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    ok = length > 1e-12
+    normals, tri = normals[ok] / length[ok, None], tri[ok]
+    offsets = np.einsum("ij,ij->i", normals, tri[:, 0])
+    flip = ((eyes @ normals.T - offsets) > 0).mean(axis=0) < 0.5  # orient each towards the cameras
+    normals[flip], offsets[flip] = -normals[flip], -offsets[flip]
+    counts = np.zeros(len(normals), int)
+    for start in range(0, len(normals), 256):  # hypotheses in batches: (batch, points) heights
+        n, d = normals[start:start + 256], offsets[start:start + 256]
+        h = points @ n.T - d
+        valid = (((eyes @ n.T - d) > 0).mean(axis=0) >= 0.9) & ((h < -3 * tol).mean(axis=0) <= 0.05) \
+            & (focus @ n.T - d > -tol)
+        counts[start:start + 256] = np.where(valid, (np.abs(h) < tol).sum(axis=0), 0)
+    out: list[tuple[np.ndarray, float, int]] = []
+    for k in np.argsort(-counts, kind="stable"):
+        if counts[k] == 0 or len(out) == most:
+            break
+        if not any(normals[k] @ n > np.cos(np.radians(5)) and abs(offsets[k] - d) < 3 * tol for n, d, _ in out):
+            out.append((normals[k], float(offsets[k]), int(counts[k])))
+    return out
+
+
+def _local_triples(points: np.ndarray, reach: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``(≤ n, 3, 3)`` triples of ``points``: a random one and two random others within ``reach`` of it. A support
+    seen around a small object gives few of the points (DTU's skull on its table, triangulated with the known
+    poses: 47 of 756), and three taken anywhere are all on it once in 2,000 draws; taken near one another, often
+    (each one on the table has its neighbours on it)."""
+    first = rng.integers(0, len(points), n)
+    out = []
+    for i, near in zip(first, cKDTree(points).query_ball_point(points[first], reach)):
+        others = [j for j in near if j != i]
+        if len(others) >= 2:
+            out.append(points[[i, *rng.choice(others, 2, replace=False)]])
+    return np.array(out).reshape(-1, 3, 3)
 
 
 def _clusters(points: np.ndarray) -> np.ndarray:
