@@ -4,6 +4,8 @@ Captures (``--captures``, comma-separated; default ``dtu,carpet-parcel,carpet-co
 
 - ``dtu``: DTU scan65 (a skull on a brown table before a dark room), its 49 real photos as a plain folder;
   its true masks score the automatic ones. Needs ``../shared/data``.
+- ``dtu-neus``: the same photos in DTU's NeuS/IDR layout with its cameras (``cameras_sphere.npz``) and
+  without its masks: a posed scene whose masks doodle makes (its points triangulated with the known poses).
 - ``carpet-parcel``, ``carpet-cow``, ``carpet-calf``, ``planks-chair``: the package's procedural phone captures (``doodle sample
   NAME --capture --floor carpet|planks``: 40 JPEGs at 400 px with lens distortion, portrait and EXIF-rotated
   shots) given as a plain folder of photos; a busy red carpet has more features than the object.
@@ -73,6 +75,15 @@ def dtu_photos(photos: Path, truth: Path) -> None:
         shutil.copy(p, photos / p.name)
     for i, p in enumerate(sorted((DTU / "mask").glob("*.png"))):
         Image.open(p).convert("L").point(lambda v: 255 * (v > 127)).save(truth / f"{i:06d}.png")
+
+
+def dtu_neus(scene: Path, truth: Path) -> None:
+    (scene / "image").mkdir()
+    for p in sorted((DTU / "image").glob("*.png")):
+        shutil.copy(p, scene / "image" / p.name)
+    shutil.copy(DTU / "cameras_sphere.npz", scene)
+    for p, m in zip(sorted((DTU / "image").glob("*.png")), sorted((DTU / "mask").glob("*.png"))):
+        Image.open(m).convert("L").point(lambda v: 255 * (v > 127)).save(truth / p.name)
 
 
 def procedural_photos(name: str, floor: str, photos: Path, truth: Path, work: Path) -> None:
@@ -156,10 +167,10 @@ def bench(name: str, work: Path, keep: bool, held: bool) -> str | None:
     photos, truth = work / "photos", work / "true-masks"
     for d in (photos, truth):
         d.mkdir(parents=True)
-    if name == "dtu":
+    if name in ("dtu", "dtu-neus"):
         if not DTU.is_dir():
             return None
-        dtu_photos(photos, truth)
+        (dtu_photos if name == "dtu" else dtu_neus)(photos, truth)
     elif name == "lego":
         if not LEGO.is_dir():
             return None
@@ -169,7 +180,8 @@ def bench(name: str, work: Path, keep: bool, held: bool) -> str | None:
     doodle = [sys.executable, "-m", "doodle"]
     strokes = work / f"{name}.doodleb"
     marks, log = fit_timed([*doodle, "fit", str(photos), "-o", str(strokes)])
-    registered = next((ln.split(": ", 1)[1] for ln in log if ln.startswith("structure-from-motion") and "registered" in ln), "?")
+    registered = next((ln.split(": ", 1)[1] for ln in log if ln.startswith("structure-from-motion") and "registered" in ln),
+                      "the scene's own poses" if name == "dtu-neus" else "?")
     auto = photos / "doodle-masks"
     ious = mask_ious(auto, truth)
     p = subprocess.run([*doodle, "eval", str(strokes), str(photos), "--split", "train", "--masks", str(truth),
@@ -192,7 +204,7 @@ def bench(name: str, work: Path, keep: bool, held: bool) -> str | None:
     if keep:
         subprocess.run([*doodle, "export", str(strokes), "--cameras", str(photos), "--split", "train", "-o",
                         str(work / "views")], capture_output=True, check=True)
-        sheet(photos, auto, work / "views", work / "sheet.png")
+        sheet(photos / "image" if name == "dtu-neus" else photos, auto, work / "views", work / "sheet.png")
         lines.append(f"{'':14s} look at {work / 'sheet.png'}")
     return "\n".join(lines)
 
@@ -218,12 +230,12 @@ def held_out(photos: Path, auto: Path, truth: Path, every: int = 8) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--captures", default="dtu,carpet-parcel,carpet-cow",
-                    help="comma-separated: dtu, lego, " + ", ".join(PROCEDURAL))
+                    help="comma-separated: dtu, dtu-neus, lego, " + ", ".join(PROCEDURAL))
     ap.add_argument("--keep", type=Path, help="keep photos, masks, strokes and a sheet here")
     ap.add_argument("--held-out", action="store_true", help="also score a fit without every 8th photo on those")
     args = ap.parse_args()
     names = [n.strip() for n in args.captures.split(",") if n.strip()]
-    unknown = [n for n in names if n not in ("dtu", "lego", *PROCEDURAL)]
+    unknown = [n for n in names if n not in ("dtu", "dtu-neus", "lego", *PROCEDURAL)]
     if unknown:
         sys.exit(f"unknown capture {unknown[0]!r}")
     root = args.keep or Path(tempfile.mkdtemp(prefix="doodle-bench-capture-"))
