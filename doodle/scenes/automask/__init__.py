@@ -66,8 +66,8 @@ REVISION = 5
 """Of how masks are made: part of every saved folder's :func:`fingerprint`, raised when a change makes other
 masks from the same photos (2: overexposed holes filled, a textured floor's colours cut from the hull's chunk;
 3: the floor cue cuts into the hull's projection only where the colour is the background's; 4: a thin part
-joins the body at a base),
-so a fit after an upgrade makes them anew instead of reading the last release's."""
+joins the body at a base; 5: a support that gave few of the points is found), so a fit after an upgrade makes
+them anew instead of reading the last release's."""
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
 

@@ -83,15 +83,14 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
                   ) -> tuple[np.ndarray, float] | None:
     """The plane the object stands on: ``(unit normal towards the cameras, offset)``, or ``None``.
 
-    RANSAC over ``points`` (triples drawn anywhere; when none is on a support, also drawn near one another,
-    :func:`_local_triples`): a hypothesis counts when at least 90 % of the cameras and the fixation point
-    ``focus`` lie above it and at most 5 % of the points lie below it (a floor has nothing under it; a plane
-    through the object has half of it below); the ones with most points within :data:`PLANE_TOL` of ``radius``
-    are tried in turn (:data:`PLANE_CANDIDATES`), each while at least 20 points and 3 % of them lie on it (a plain paper or table gives few features: the
-    object may give many more). It is the support, not the object's own base, when its points spread beyond
-    the points above it and continue out of the photos (among ``everything``, when given, they come within 3 %
-    of the frame's edge in half the views): a base plate twice as wide as the object on it and framed by every
-    photo (Lego's) is part of the object.
+    RANSAC over ``points``: a hypothesis counts when at least 90 % of the cameras and the fixation point ``focus``
+    lie above it and at most 5 % of the points lie below it (a floor has nothing under it; a plane through the
+    object has half of it below); the ones with most points within :data:`PLANE_TOL` of ``radius`` are tried in turn
+    (:data:`PLANE_CANDIDATES`), each while at least 20 points and 3 % of them lie on it (a plain paper or table
+    gives few features: the object may give many more). It is the support, not the object's own base, when its
+    points spread beyond the points above it and continue out of the photos (among ``everything``, when given, they
+    come within 3 % of the frame's edge in half the views): a base plate twice as wide as the object on it and
+    framed by every photo (Lego's) is part of the object.
     """
     if len(points) < 30:
         return None
@@ -99,12 +98,17 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
     tol = PLANE_TOL * radius
     eyes = np.array([c.center for c in cameras])
     least = max(20, 0.03 * len(points))
-    anywhere = points[rng.integers(0, len(points), (iterations, 3))]
+
+    def triples(fallback: bool) -> np.ndarray:
+        # drawn anywhere; when none of their planes is the support, it may have given few of the points (all
+        # three on it once in share⁻³ draws): FALLBACK_DRAWS times as many, and as many triples of neighbours
+        if not fallback:
+            return points[rng.integers(0, len(points), (iterations, 3))]
+        return np.concatenate([points[rng.integers(0, len(points), (FALLBACK_DRAWS * iterations, 3))],
+                               _local_triples(points, LOCAL_REACH * radius, iterations, rng)])
+
     for fallback in (False, True):
-        if fallback:  # a support that gave few of the points: more triples, and triples near one another
-            tri = np.concatenate([points[rng.integers(0, len(points), (FALLBACK_DRAWS * iterations, 3))],
-                                  _local_triples(points, LOCAL_REACH * radius, iterations, rng)])
-        for n, d, count in _planes(tri if fallback else anywhere, points, eyes, focus, tol):
+        for n, d, count in _planes(triples(fallback), points, eyes, focus, tol):
             if count < least:
                 break
             found = _as_support(n, d, points, cameras, tol, everything)
