@@ -198,14 +198,16 @@ def world_boxes(sq, grid: tuple[int, int] = (33, 64)) -> tuple[np.ndarray, np.nd
     corners = np.stack(np.meshgrid(*[[-1.0, 1.0]] * 3, indexing="ij"), -1).reshape(-1, 3)
     samples = [corners * a for a in sq.scale]
     margin = np.zeros(len(sq))
-    if sq.deformed.any():
+    bent = np.flatnonzero(sq.deformed)
+    if len(bent):
         eta, omega = np.meshgrid(np.linspace(-np.pi / 2, np.pi / 2, grid[0]), np.linspace(-np.pi, np.pi, grid[1]),
                                  indexing="ij")
-        b = (slice(None), None, None)  # each superquadric over the whole grid
-        deformation = tuple(d[b] for d in deformation_of(sq))
-        p, _ = deformed_surface_points_at(eta, omega, sq.scale[b], sq.shape[b], deformation)
-        for i in np.flatnonzero(sq.deformed):
-            samples[i] = p[i].reshape(-1, 3)
+        those = sq.subset(sq.deformed)
+        b = (slice(None), None, None)  # each deformed superquadric over the whole grid
+        deformation = tuple(d[b] for d in deformation_of(those))
+        p, _ = deformed_surface_points_at(eta, omega, those.scale[b], those.shape[b], deformation)
+        for j, i in enumerate(bent):
+            samples[i] = p[j].reshape(-1, 3)
         margin = np.where(sq.deformed, 0.02 * np.linalg.norm(sq.scale, axis=1), 0.0)
     world = [x @ R[i].T + sq.translation[i] for i, x in enumerate(samples)]
     lo = np.stack([w.min(axis=0) for w in world]) - margin[:, None]

@@ -244,7 +244,9 @@ def hull_cut(image: np.ndarray, shadow: np.ndarray, object_uv: np.ndarray, backg
         # just above the support agree with the floor under them (the other views see the same face there),
         # and the cue alone cut a box's lower face off (the carpet parcel's masks IoU 0.971 → 0.977).
         rim = floor & ~ndimage.binary_erosion(shadow, disc(band))
-        seeds[rim & (~shadow | (unlike if unlike is not None else True))] = cv2.GC_BGD
+        if unlike is not None:
+            rim &= ~shadow | unlike
+        seeds[rim] = cv2.GC_BGD
     if off_floor is not None:
         seeds[off_floor & shadow] = cv2.GC_FGD
     cut = grabcut(image, point_seeds(seeds, object_uv, background_uv), ITERS) & near

@@ -112,8 +112,9 @@ def support_plane(points: np.ndarray, cameras: list[Camera], focus: np.ndarray, 
             sample = points[rng.choice(len(points), min(len(points), FALLBACK_POINTS), replace=False)]
             tri = np.concatenate([sample[rng.integers(0, len(sample), (FALLBACK_DRAWS * iterations, 3))],
                                   _local_triples(sample, LOCAL_REACH * radius, iterations, rng)])
-        for n, d, _ in _planes(tri, sample, eyes, focus, tol):
-            count = int((np.abs(points @ n - d) < tol).sum())
+        for n, d, count in _planes(tri, sample, eyes, focus, tol):
+            if sample is not points:  # ranked on the sample: counted on all
+                count = int((np.abs(points @ n - d) < tol).sum())
             if count < least:
                 continue
             found = _as_support(n, d, points, cameras, tol, everything)
