@@ -8,7 +8,8 @@ from scipy import ndimage
 
 from doodle.exporters import DrawOptions, draw
 from doodle.exporters.drawing import back_facing
-from doodle.fit.discovery.discover import choose_curves, complete_outline, find_candidates, select_strokes, snap_ends
+from doodle.fit.discovery.discover import (OUTLINE_OPEN, choose_curves, complete_outline, find_candidates,
+                                          select_strokes, snap_ends)
 from doodle.fit.discovery.evidence import edge_evidence, object_lines, thin_parts
 from doodle.fit.volume.carve import VoxelGrid, carve_hull, fit_axes
 from doodle.fit.discovery.facing import curve_normals
@@ -261,13 +262,18 @@ class TestChoice:
         p, r = edge_scores(found.control_points, gt["feature_edges"], 0.04 * scene.frame.radius)
         assert p > 0.75 and r > 0.5, (p, r)  # 12 views at 128 px: coarse; the full-size bars are in bench_fit
         assert found.normals.shape == (len(found.control_points), 2, 2, 3)
-        # the outline budget is spent only once the curves' is, unless always (``--detail high``): the chair's
-        # 64 were not all chosen, so only then are curves added for the outline alone and more of it drawn
-        spent = choose_curves(cand, 64, outline_curves=24, polish=False)
+        # the outline budget is spent once the curves' is, while the outline drawn is under OUTLINE_OPEN, or
+        # always (``--detail high``): the chair's 64 were not all chosen, and they draw under 0.9 of its outline
+        plain = choose_curves(cand, 64, polish=False)
+        opened = choose_curves(cand, 64, outline_curves=24, polish=False)
         always = choose_curves(cand, 64, outline_curves=24, outline_always=True, polish=False)
-        assert len(spent.control_points) < 64
-        assert spent.outline_drawn == choose_curves(cand, 64, polish=False).outline_drawn
-        assert len(always.control_points) > len(spent.control_points) and always.outline_drawn > spent.outline_drawn
+        assert len(plain.control_points) < 64 and plain.outline_drawn < OUTLINE_OPEN
+        assert len(opened.control_points) > len(plain.control_points) and opened.outline_drawn > plain.outline_drawn
+        assert len(always.control_points) > len(plain.control_points) and always.outline_drawn > plain.outline_drawn
+        # where the outline is drawn already (the superquadrics'), an unspent budget adds nothing for it
+        whole = choose_curves(cand, 64, outline_curves=24, taken=cand.rim, polish=False)
+        np.testing.assert_array_equal(whole.control_points,
+                                      choose_curves(cand, 64, taken=cand.rim, polish=False).control_points)
 
 
 class TestFacing:
