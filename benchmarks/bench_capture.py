@@ -79,11 +79,8 @@ def dtu_photos(photos: Path, truth: Path) -> None:
 
 def dtu_neus(scene: Path, truth: Path) -> None:
     (scene / "image").mkdir()
-    for p in sorted((DTU / "image").glob("*.png")):
-        shutil.copy(p, scene / "image" / p.name)
+    dtu_photos(scene / "image", truth)
     shutil.copy(DTU / "cameras_sphere.npz", scene)
-    for p, m in zip(sorted((DTU / "image").glob("*.png")), sorted((DTU / "mask").glob("*.png"))):
-        Image.open(m).convert("L").point(lambda v: 255 * (v > 127)).save(truth / p.name)
 
 
 def procedural_photos(name: str, floor: str, photos: Path, truth: Path, work: Path) -> None:
