@@ -6,8 +6,10 @@ little light reaches into a hollow, and every view that looks into one sees a re
 round it. Those dark regions are the hollow's silhouettes, as the masks are the object's: the voxels under
 the hull's surface that project into a dark region in most of the views that see their side of the object
 carve the hollow's own visual hull. Each one dark enough (:data:`DEEP`: little light reaches in) and of a size
-a viewer reads as a part is drawn as a ring: its outline seen from the views that saw into it, moved out to
-the surface that bridges its opening (:func:`_onto_surface`), facing those views.
+a viewer reads as a part is drawn as a ring round its opening: the outline of the dark region that the view
+looking most squarely into it sees there, at that view's pixels (:func:`_traced`: a nose's two lobes and
+septum, a missing tooth's notch, which the vote's grid is too coarse for), lifted to the hull's surface that
+bridges the opening.
 
 Paint as dark is found the same way and drawn the same; which rings are drawn is the salience choice's
 (:func:`.salience.choose_features`), beside the painted features.
@@ -60,6 +62,9 @@ HIDDEN = 0.1
 FACING_DEG = 60.0
 #: Gaps (voxels of the vote's grid) closed between the pieces of one hollow.
 CLOSE = 1
+#: A dark region of the view facing a hollow is part of its opening when at least this share of it lies on the
+#: hollow's footprint (:func:`_traced`): more than half, so a shaded side that reaches it stays out.
+OPENING_ON = 0.5
 
 
 @dataclass
@@ -67,7 +72,7 @@ class Hollow:
     """One hollow (or dark patch): its ring and what its salience is made of."""
 
     cubics: np.ndarray
-    """``(K, 4, 3)`` a closed chain round its opening."""
+    """``(K, 4, 3)`` closed chains round its opening (one per dark region the view facing it sees there)."""
     points: np.ndarray
     """``(P, 3)`` samples along the ring."""
     share: float
@@ -172,11 +177,15 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
         if np.linalg.norm(facing) < 1e-9:
             continue
         facing /= np.linalg.norm(facing)
-        ring = _ring(p, facing, coarse.voxel)
-        if ring is None:
-            continue
-        ring = _onto_surface(ring, facing, grid, occupied, behind)
-        cubics = fit_cubics_many([ring], tolerance, [True])[0]
+        # its opening as the view facing it sees it; where that view sees nothing dark there, the vote's own
+        # outline (the hollow's waist), moved out to the surface that bridges the opening
+        rings = _traced(p, facing, coarse.voxel, cameras, images, masks, depth)
+        if not rings:
+            ring = _ring(p, facing, coarse.voxel)
+            if ring is None:
+                continue
+            rings = [_onto_surface(ring, facing, grid, occupied, behind)]
+        cubics = np.concatenate(fit_cubics_many(rings, tolerance, [True] * len(rings)))
         samples = bezier_points(cubics, np.linspace(0, 1, 12)).reshape(-1, 3)
         out.append(Hollow(cubics, samples, float(share[members].mean()), darkness, facing))
     return out
@@ -205,6 +214,74 @@ def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: f
         if occluded(moved + margin * facing, view, facing_it, sq, margin, volume=volume).mean() <= HIDDEN:
             return cubics + s * facing
     return None
+
+
+def _traced(points: np.ndarray, facing: np.ndarray, voxel: float, cameras: list, images: list, masks: list,
+            depth: list) -> list[np.ndarray]:
+    """The opening of the hollow whose voxels are ``points`` ``(P, 3)``, traced in the view that looks most
+    squarely into it (along ``facing``): the outlines of that view's dark regions (:func:`dark_regions`) lying
+    mostly on the hollow's projection, each lifted to the hull's front depth there. ``[]`` when that view sees
+    none. The vote's grid is too coarse for an opening's shape (a nose's two lobes and their septum, the
+    notch of a missing tooth); the view's pixels are not."""
+    to_eye = np.array([c.center for c in cameras]) - points.mean(0)
+    v = int(np.argmax((to_eye / np.linalg.norm(to_eye, axis=1, keepdims=True)) @ facing))
+    cam, dark = cameras[v], dark_regions(images[v], masks[v])[0]
+    u, w, z = project_points(cam, points.astype(np.float32))
+    H, W = dark.shape
+    ok = (z > 1e-6) & (u >= 0) & (w >= 0) & (u < W) & (w < H)
+    labels, n = ndimage.label(dark)
+    if n == 0 or not ok.any():
+        return []
+    # the hollow's footprint: its voxels' pixels, grown by a voxel's size in this view
+    foot = np.zeros_like(dark)
+    foot[w[ok], u[ok]] = True
+    px = max(1, int(np.ceil(voxel * cam.fx / float(np.median(z[ok])))))
+    foot = ndimage.binary_dilation(foot, iterations=px)
+    area = np.bincount(labels.ravel(), minlength=n + 1)
+    on = np.bincount(labels[foot], minlength=n + 1)
+    rings = []
+    for k in np.flatnonzero((on >= OPENING_ON * area) & (area >= 4 * px * px)):
+        if k == 0:
+            continue
+        outline = _outline(ndimage.binary_fill_holes(labels == k))
+        if outline is not None:
+            rings.append(_lifted(outline, cam, depth[v]))
+    return rings
+
+
+def _outline(region: np.ndarray, spacing: float = 1.5) -> np.ndarray | None:
+    """``(S, 2)`` pixel positions ``(row, col)`` every ``spacing`` px round the outer outline of ``region``
+    (bool ``(H, W)``), smoothed over a pixel; ``None`` for a speck."""
+    soft = ndimage.gaussian_filter(np.pad(region, 2).astype(np.float32), 1.0)
+    contours = measure.find_contours(soft, 0.5)
+    if not contours:
+        return None
+    c = max(contours, key=len) - 2
+    step = np.linalg.norm(np.diff(c, axis=0, append=c[:1]), axis=1)
+    at, period = np.r_[0, np.cumsum(step)[:-1]], float(step.sum())
+    if period < 8 * spacing:
+        return None
+    t = np.arange(0, period, spacing)
+    return np.stack([np.interp(t, at, c[:, i], period=period) for i in range(2)], 1)
+
+
+def _lifted(outline: np.ndarray, cam, depth: np.ndarray, reach: int = 4, smooth: int = 9) -> np.ndarray:
+    """``(S, 3)``: the pixels ``outline`` ``(S, 2)`` (row, col) of ``cam`` lifted to the hull's front depth
+    round them. A hull's depth map keeps a back face's depth where no front voxel lands on a pixel
+    (:func:`.evidence.depth_maps`): the nearest tenth of the depths within ``reach`` px is the front's; it is
+    then smoothed along the ring over ``smooth`` samples (the voxels' stairs)."""
+    H, W = depth.shape
+    rows, cols = np.clip(np.rint(outline).astype(int), 0, [H - 1, W - 1]).T
+    z = np.full(len(outline), np.nan)
+    for i, (r, c) in enumerate(zip(rows, cols)):
+        window = depth[max(r - reach, 0):r + reach + 1, max(c - reach, 0):c + reach + 1]
+        finite = window[np.isfinite(window)]
+        if len(finite):
+            z[i] = np.percentile(finite, 10)
+    z = np.where(np.isfinite(z), z, np.nanmedian(z)) if np.isfinite(z).any() else np.zeros(len(outline))
+    z = ndimage.uniform_filter1d(z, smooth, mode="wrap")
+    origins, dirs = cam.rays_at(outline[:, 1] + 0.5, outline[:, 0] + 0.5)
+    return origins + dirs * (z / (dirs @ cam.forward))[:, None]
 
 
 def _onto_surface(points: np.ndarray, normal: np.ndarray, grid: VoxelGrid, occupied: np.ndarray, reach: float
