@@ -164,3 +164,23 @@ def test_the_stages_report_their_time(snowman_dir):
               log=lambda m: None)
     assert list(res.stage_seconds) == ["prepare", *STAGES[1:-1], "assemble"]
     assert np.isclose(sum(res.stage_seconds.values()), res.seconds, rtol=0.2, atol=0.5)
+
+
+def test_max_bytes_leaves_out_curves_until_the_file_fits(snowman_dir, tmp_path, uninterrupted):
+    """The same fit under a size a few curves over: a file within it, its curves some of the uninterrupted
+    fit's, the superquadrics as they were; the log says how many were left out."""
+    from doodle.strokes.binary import decode
+
+    whole = decode(uninterrupted)
+    whole.provenance["seconds"] = 99999.99
+    cap = len(encode(whole)) - 12
+    out = tmp_path / "small.doodleb"
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL, "--max-bytes", str(cap)])
+    assert r.exit_code == 0, r.output
+    assert "left out, the least telling first" in r.output
+    assert out.stat().st_size <= cap
+    small = read_strokes(out)
+    assert 0 < len(small.curves) < len(whole.curves)
+    for c in small.curves.control_points:
+        assert np.abs(whole.curves.control_points - c).max(axis=(1, 2)).min() < 2e-3  # the binary's quantum
+    assert np.allclose(small.superquadrics.drawn, whole.superquadrics.drawn)

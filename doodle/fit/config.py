@@ -150,6 +150,10 @@ class FitConfig:
         "abstraction", None, "At most this many features inside the outline (eyes, a muzzle, buttons, patches: lines "
         "on smooth faces), chosen by salience, not length [default: the --detail level's].", kind=int,
         limits=(0, 256), flag="--features")
+    max_bytes: int = option(
+        "abstraction", 2500, "The compact file's size at most (bytes): past it, the curves whose ink on the views' "
+        "lines no other stroke draws is least are left out until it fits; 0: no limit. The hull's outline "
+        "(--outline hull, or auto's fallback) is not cut.", kind=int, limits=(0, 100_000_000), flag="--max-bytes")
     thin: float = option(
         "abstraction", 0.06, "Parts thinner than this share of the object's size (legs, cables, handles) are "
         "drawn by curves, never by superquadrics.", kind=float, limits=(0.0, 0.5))

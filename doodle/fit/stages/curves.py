@@ -11,8 +11,10 @@ where each is drawn.
    the targets; without discovery, curves off the views' lines are pruned after it.
 3. **Hiding.** A discovered curve keeps its face normals (drawn only from where its faces are seen) unless
    the training views show it from where its faces would hide it.
+4. **Size.** Past ``--max-bytes`` (2,500 by default), the curves that tell least are left out until the file
+   fits (:mod:`..budget`); the hull's outline is never cut.
 
-Ctrl-C in the polish keeps the best curves so far, finishes steps 3 and the file, and ``--resume`` goes on
+Ctrl-C in the polish keeps the best curves so far, finishes steps 3 and 4 and the file, and ``--resume`` goes on
 with the polish.
 """
 
@@ -47,6 +49,8 @@ def run(state: FitState) -> None:
                       state.chosen.normals, state.chosen.contour)
     if state.discovering and len(curves) and state.work.masks is not None:
         curves = confirm_hiding(state, curves)
+    if state.config.max_bytes and not state.config.outline_hull and len(curves):
+        curves = within_bytes(state, curves)
     state.curves = curves
 
 
@@ -172,6 +176,34 @@ def polish(state: FitState) -> None:
 def _subset(found: Found, keep: np.ndarray) -> Found:
     return Found(found.control_points[keep], None if found.normals is None else found.normals[keep],
                  None if found.contour is None else found.contour[keep], found.outline)
+
+
+def within_bytes(state: FitState, curves: CurveSet) -> CurveSet:
+    """Step 4: the curves thinned, the least telling first, until the file fits ``--max-bytes`` (:mod:`..budget`)."""
+    from ...strokes.binary import encode
+    from ..budget import within_bytes as thinned
+
+    cfg = state.config
+    sq = state.superquadrics if state.superquadrics is not None else SuperquadricSet()
+
+    def size_of(c: CurveSet) -> int:
+        # the provenance's seconds at their widest (a fit under 28 hours): the file written is no larger
+        return len(encode(state.stroke_set(c, sq, state.hull, 99999.99)))
+
+    before = size_of(curves)
+    if before <= cfg.max_bytes:
+        return curves
+    if state.work.masks is not None:
+        cameras, lines, _ = state.judge
+    else:  # no masks: the images' strongest lines over the whole frame
+        from ..discovery.evidence import object_lines
+
+        cameras = [state.work.cameras[v] for v in state.judge_views]
+        lines = [object_lines(state.work.images[v], None) for v in state.judge_views]
+    kept = thinned(curves, size_of, cfg.max_bytes, sq, state.frame, cameras, lines, state.occluder)
+    state.say(f"curves: {len(curves) - len(kept)} of {len(curves)} left out, the least telling first, for "
+              f"--max-bytes {cfg.max_bytes:,} ({before:,} → {size_of(kept):,} B)")
+    return kept
 
 
 def confirm_hiding(state: FitState, curves: CurveSet) -> CurveSet:
