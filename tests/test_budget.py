@@ -50,3 +50,10 @@ def test_closed_chains_are_one_unit_and_open_ones_are_not():
     open_pair = square[:2] + [0, 0, 5]  # two joined cubics that do not close
     labels = closed_chains(np.concatenate([open_pair, square, square[:1] + 9]), 1e-9)
     assert labels.tolist() == [0, 1, 2, 2, 2, 2, 6]
+
+
+def test_what_a_left_out_curve_shared_is_the_others_alone_after_it():
+    # X and Y draw the same two pixels, Z one of its own: X goes first (nothing alone), then Y draws two pixels
+    # alone and Z one, so Z goes next — without the recount Y (still "nothing alone") would
+    ink, count = _ink([0, 1], [0, 1], [5])
+    assert least_telling_first(ink, count, lambda keep: keep.sum() <= 1).tolist() == [False, True, False]
