@@ -62,10 +62,10 @@ def telling_ink(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, camera
         ``count[v]`` ``(H·W,)``: how many units ink each pixel there, a large number where a superquadric's
         outline does (never any unit's alone).
     """
-    units = np.arange(len(curves)) if units is None else np.asarray(units)
-    n_units = int(units.max()) + 1 if len(units) else 0
     from ..exporters.drawing import DrawOptions, draw_many
 
+    units = np.arange(len(curves)) if units is None else np.asarray(units)
+    n_units = int(units.max()) + 1 if len(units) else 0
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
     drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder), cameras, opts)
     ink, count = [], []
@@ -111,7 +111,7 @@ def within_bytes(curves: CurveSet, size_of: Callable[[CurveSet], int], max_bytes
                  ) -> CurveSet:
     """``curves`` thinned until ``size_of`` the file with them is at most ``max_bytes`` (unchanged when it is
     already; every curve left out when even the superquadrics alone are larger). ``cameras``, ``lines``: the
-    training views in which the ink is counted (a dozen, evenly spread) and their line maps."""
+    training views in which the ink is counted (the fit's judging views: 24, evenly spread) and their line maps."""
     if size_of(curves) <= max_bytes or not len(curves):
         return curves
     _, units = np.unique(closed_chains(curves.control_points, 1e-6 * frame.radius), return_inverse=True)
