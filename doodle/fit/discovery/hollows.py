@@ -28,7 +28,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
-from ...arrays import spread_indices
+from ...arrays import along_polyline, spread_indices
 from ...exporters.visibility import occluded
 from ...strokes.bezier import bezier_points
 from ...strokes.fitcurve import fit_cubics_many
@@ -257,12 +257,10 @@ def _outline(region: np.ndarray, spacing: float = 1.5) -> np.ndarray | None:
     if not contours:
         return None
     c = max(contours, key=len) - 2
-    step = np.linalg.norm(np.diff(c, axis=0, append=c[:1]), axis=1)
-    at, period = np.r_[0, np.cumsum(step)[:-1]], float(step.sum())
-    if period < 8 * spacing:
+    length = float(np.linalg.norm(np.diff(c, axis=0, append=c[:1]), axis=1).sum())
+    if length < 8 * spacing:
         return None
-    t = np.arange(0, period, spacing)
-    return np.stack([np.interp(t, at, c[:, i], period=period) for i in range(2)], 1)
+    return along_polyline(c, int(length / spacing), closed=True)
 
 
 def _lifted(outline: np.ndarray, cam, depth: np.ndarray, reach: int = 4, smooth: int = 9) -> np.ndarray:
@@ -323,9 +321,5 @@ def _ring(points: np.ndarray, normal: np.ndarray, voxel: float, samples: int = 4
     c = max(contours, key=len) - 1 + lo + 0.5  # back to voxel units about the centre
     if len(c) < 8:
         return None
-    step = np.linalg.norm(np.diff(c, axis=0, append=c[:1]), axis=1)
-    at = np.r_[0, np.cumsum(step)[:-1]]
-    t = np.linspace(0, at[-1] + step[-1], samples, endpoint=False)
-    c = np.stack([np.interp(t, at, c[:, i], period=at[-1] + step[-1]) for i in range(2)], 1)
-    c = ndimage.uniform_filter1d(c, 5, axis=0, mode="wrap")
+    c = ndimage.uniform_filter1d(along_polyline(c, samples, closed=True), 5, axis=0, mode="wrap")
     return centre + (c * voxel) @ np.stack([u, v])
