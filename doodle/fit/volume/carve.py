@@ -94,6 +94,12 @@ def project_points(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return u, v, z
 
 
+#: The coarse pass's first cube: its half-side (scene radii) and cells along a side; how much a side grows (× that
+#: half-side) where the object reaches it, and how many times at most.
+FIRST_SIDE, FIRST_CELLS = 1.15, 48
+GROW, GROW_TRIES = 0.25, 4
+
+
 def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray],
               min_seen: int, disagree: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Cells of centre ``points`` and half-diagonal ``half_diag``: ``(surely inside, possibly inside)``.
@@ -120,12 +126,41 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
     return maybe & (unsure <= allowed), maybe
 
 
+def _first_pass(center: np.ndarray, r: float, up: np.ndarray, cameras: list[Camera], sdf: list[np.ndarray],
+                min_seen: int, disagree: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The coarse pass: cells of side ``2 r /`` :data:`FIRST_CELLS` over a box that starts as the cube of half-side
+    ``r`` about ``center``; their centres ``(n, 3)``, whether each may hold the object, and the cell's side.
+
+    A scene's frame is an estimate (SfM's: about the point the cameras aim at, which on DTU's skull is its face):
+    where the object reaches a face of the box it goes on beyond it, and that side grows by :data:`GROW` × ``r``
+    (at most :data:`GROW_TRIES` times) — else the hull is the object cut off there (the back of the skull's
+    cranium, lost in every side view). Not the sides below (``up``): under an object that rests on something no
+    view carves a wedge that reaches far down, and the object does not go on there."""
+    n0 = FIRST_CELLS
+    cell = 2 * r / n0
+    lo, hi = center - r, center + r
+    below_lo, below_hi = -up < -0.5, up < -0.5  # the axis directions that point down (a face's outward normal)
+    for attempt in range(GROW_TRIES + 1):
+        axes = [lo[a] + (np.arange(int(np.ceil((hi[a] - lo[a]) / cell - 1e-6))) + 0.5) * cell for a in range(3)]
+        pts0 = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        _, maybe0 = _classify(pts0, np.sqrt(3) * cell / 2, cameras, sdf, min_seen, disagree)
+        box = maybe0.reshape([len(g) for g in axes])
+        touch_lo = np.array([np.take(box, 0, axis=a).any() for a in range(3)]) & ~below_lo
+        touch_hi = np.array([np.take(box, -1, axis=a).any() for a in range(3)]) & ~below_hi
+        if attempt == GROW_TRIES or not (touch_lo.any() or touch_hi.any()):
+            return pts0, maybe0, cell
+        lo = lo - touch_lo * GROW * r
+        hi = hi + touch_hi * GROW * r
+    raise AssertionError("unreachable")
+
+
 def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_seen_frac: float = 0.3,
                levels: int = 3, sdf: list[np.ndarray] | None = None, disagree: float | None = None
                ) -> tuple[VoxelGrid, np.ndarray]:
     """Visual hull on a grid fitted to the object: ``(grid, occupied bool (X, Y, Z))``.
 
-    A 48³ pass over the bounding sphere finds the object's box, turned about the scene's up to fit it
+    A coarse pass over the scene's frame (:func:`_first_pass`, grown where the object reaches past it) finds the
+    object's box, turned about the scene's up to fit it
     (:func:`fit_axes`); the fine grid covers that box with
     ``max_voxels`` voxels along its longest side and is carved coarse to fine (``levels`` halvings).
     ``sdf``: the masks' signed distances (see :class:`ViewMaps`), when already computed. ``disagree``: the
@@ -145,14 +180,9 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
             sdf.append((np.where(m, inside, -outside) + slack_px).astype(np.float32))
     min_seen = max(2, int(min_seen_frac * len(cams)))
     f = scene.frame
-    r = 1.15 * f.radius
-    n0 = 48
-    g0 = (np.arange(n0) + 0.5) / n0 * 2 * r - r
-    pts0 = np.stack(np.meshgrid(g0, g0, g0, indexing="ij"), -1).reshape(-1, 3) + f.center
-    _, maybe0 = _classify(pts0, np.sqrt(3) * r / n0, cams, sdf, min_seen, disagree)
+    pts0, maybe0, cell0 = _first_pass(f.center, FIRST_SIDE * f.radius, f.up, cams, sdf, min_seen, disagree)
     if not maybe0.any():
         raise ValueError("the masks do not agree on any voxel (wrong poses or masks?)")
-    cell0 = 2 * r / n0
     axes = fit_axes(pts0[maybe0], f.up)
     q = pts0[maybe0] @ axes.T  # box in the grid's frame
     lo = q.min(axis=0) - cell0
