@@ -638,3 +638,56 @@ def test_a_thin_part_the_cuts_lost_comes_back_from_the_first_masks_and_a_floor_p
     patch_px = [f & ~t for f, t in zip(first, truth)]
     assert sum(p.sum() for p in patch_px) > 1000 and not any((m & p).any() for m, p in zip(masks, patch_px))
     assert all((m | f == m).all() for m, f in zip(masks, final))  # only ever adds
+
+
+def test_legs_standing_on_the_floor_come_back_from_the_floor_cue_and_its_ghosts_do_not():
+    """:func:`standing_parts`: a ball on a pole down to the floor, with three legs from its middle to the floor
+    (a microphone stand); the cuts kept the ball and the pole and lost the legs, which the floor cue sees off
+    the floor in every view. The views' off-floor pixels also hold ghosts: a patch of floor at the pole's foot
+    that all of them agree on (the halo round a bulky object's foot) and a blob of one view's own. The legs
+    come back; the patch (it reaches out as far as a part does, but does not rise) and the blob do not."""
+    from doodle.cameras import Camera, look_at
+    from doodle.scenes.automask.region import ObjectRegion
+    from doodle.scenes.automask.thin import standing_parts
+
+    cams = []
+    for k, a in enumerate(np.linspace(0, 2 * np.pi, 16, endpoint=False)):
+        R, t = look_at(np.array([3 * np.cos(a), 3 * np.sin(a), 1.0 + 0.5 * (k % 2)]), np.zeros(3),
+                       np.array([0, 0, 1.0]))
+        cams.append(Camera(200, 200, 100, 100, 200, 200, R, t))
+    floor_z = -0.6
+    body = lambda p: (np.linalg.norm(p - [0, 0, 0.3], axis=1) <= 0.3) | (
+        (np.hypot(p[:, 0], p[:, 1]) <= 0.04) & (p[:, 2] >= floor_z) & (p[:, 2] <= 0.3))
+
+    def legs(p):
+        out = np.zeros(len(p), bool)
+        for a in np.radians([90, 210, 330]):  # from the pole at (0, 0, -0.1) to the floor 0.9 out
+            d = np.array([0.9 * np.cos(a), 0.9 * np.sin(a), floor_z + 0.1])
+            s = np.clip(((p - [0, 0, -0.1]) @ d) / (d @ d), 0, 1)
+            out |= np.linalg.norm(p - ([0, 0, -0.1] + s[:, None] * d), axis=1) <= 0.03
+        return out
+
+    # the halo: floor round the pole's foot, in the gap between two legs
+    halo = lambda p: ((np.hypot(p[:, 0], p[:, 1]) <= 0.4) & (p[:, 2] <= floor_z + 0.05)
+                      & (np.abs(np.degrees(np.arctan2(p[:, 1], p[:, 0])) + 90) <= 25))
+    final = _solid_masks(cams, body, ([-0.3] * 2 + [floor_z], [0.3] * 2 + [0.6]))
+    leg_masks = _solid_masks(cams, legs, ([-1.0] * 2 + [floor_z], [1.0] * 2 + [-0.05]), 200_000)
+    halos = _solid_masks(cams, halo, ([-0.4, -0.4, floor_z], [0.4, 0.4, floor_z + 0.05]), 40_000)
+    truth = [f | g for f, g in zip(final, leg_masks)]
+    off_floor = [t | h for t, h in zip(truth, halos)]
+    ghost = np.zeros_like(off_floor[0])
+    ghost[20:50, 20:50] = True  # one view's own, seen off the floor by none of the others
+    off_floor[0] = off_floor[0] | ghost
+    first = [o | t for o, t in zip(off_floor, truth)]
+    points = np.random.default_rng(0).normal([0, 0, 0.3], 0.15, (200, 3))  # SfM's, on the ball
+    region = ObjectRegion(np.zeros(3), points, np.zeros((0, 3)), (np.array([0, 0, 1.0]), floor_z), 1.0)
+    masks, count = standing_parts(cams, first, final, region, off_floor)
+    assert count > 0
+    leg_px = [t & ~f for t, f in zip(truth, final)]
+    assert sum((m & g).sum() for m, g in zip(masks, leg_px)) > 0.6 * sum(g.sum() for g in leg_px)
+    halo_px = [h & ~t for h, t in zip(halos, truth)]
+    assert sum(h.sum() for h in halo_px) > 500
+    # (the halo's pixels beside the pole's foot and the legs' join them; the patch does not come back)
+    assert sum((m & h).sum() for m, h in zip(masks, halo_px)) < 0.1 * sum(h.sum() for h in halo_px)
+    assert not (masks[0] & ghost & ~truth[0]).any()
+    assert all((m | f == m).all() for m, f in zip(masks, final))  # only ever adds

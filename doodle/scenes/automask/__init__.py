@@ -16,7 +16,8 @@ per-view colour models, and the views are made to agree on one object.
    carpet seen between legs, coloured and textured like the floor round it, is seeded background in the
    projection (:func:`.cut.background_like`, :func:`.cut.textured_like_floor`), and the overexposed highlights
    a cut gave away are put back (:func:`.cut.fill_highlights`). Thin parts the cuts lose (ears, a tail)
-   are put back where the first masks agree on them (:mod:`.thin`).
+   are put back where the first masks agree on them, and parts standing on the support (a tripod's legs on a
+   busy carpet) where every view's floor cue sees them off the floor (:mod:`.thin`).
 4. **Plausibility**: masks that cover most of every photo, or that still disagree between views, stop here with
    one line saying to give masks (``--masks DIR``), instead of drawing the floor.
 
@@ -53,7 +54,7 @@ from .cut import (
 from .floor import blurred, floor_error, floor_pixels
 from .hull import FIRST_AGREE, agreement, carve, reach_mask, shadow
 from .region import PLANE_TOL, ObjectRegion, in_view, object_region
-from .thin import restore_thin_parts
+from .thin import restore_thin_parts, standing_parts
 
 CUT_SIZE = 384
 """px, the long side at which the views are cut (GrabCut's cost grows with the pixel count)."""
@@ -62,11 +63,12 @@ MAX_COVER = 0.75
 surroundings."""
 MIN_AGREEMENT = 0.7
 """Masks whose median IoU with the hull's projection is under this disagree between views: no one object."""
-REVISION = 5
+REVISION = 6
 """Of how masks are made: part of every saved folder's :func:`fingerprint`, raised when a change makes other
 masks from the same photos (2: overexposed holes filled, a textured floor's colours cut from the hull's chunk;
 3: the floor cue cuts into the hull's projection only where the colour is the background's; 4: a thin part
-joins the body at a base; 5: a support that gave few of the points is found), so a fit after an upgrade makes
+joins the body at a base; 5: a support that gave few of the points is found; 6: parts standing on the support
+that the cuts lost put back from the floor cue), so a fit after an upgrade makes
 them anew instead of reading the last release's."""
 MARKER = "doodle-masks.json"
 """In a folder of automatic masks: they are automatic (delete it once fixed by hand)."""
@@ -195,6 +197,10 @@ def auto_masks(scene: Scene, log: Callable[[str], None] = print, rounds: int = 2
     masks, thin = restore_thin_parts(cams, first, masks, region, final)
     if thin:
         log(f"automatic masks: thin parts the cuts lost put back ({thin} voxels)")
+    if region.plane is not None:
+        masks, stood = standing_parts(cams, first, masks, region, [off for _, off in floors])
+        if stood:
+            log(f"automatic masks: parts standing on the support that the cuts lost put back ({stood} voxels)")
     return [_resize(m, (full.shape[1], full.shape[0])) if m.shape != full.shape[:2] else m
             for m, full in zip(masks, scene.images)]
 

@@ -28,6 +28,8 @@ shadow): on the DTU skull, the hull's recall of the object 0.92 at :data:`AGREE`
 0.91, which the cut seeded by it takes back)."""
 HULL_VOXELS = 96
 """Voxels along the longest side of the grid the masks vote on."""
+STANDING_AGREE = 0.8
+"""Share of the views seeing a voxel that must see it off the floor for it to stand on the support (:func:`standing`)."""
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,34 @@ def called_object(cameras: list[Camera], masks: list[np.ndarray], points: np.nda
         seen[ok] += 1
         inside[np.flatnonzero(ok)[m[v, u]]] += 1
     return (seen >= 3) & (inside >= agree * seen)
+
+
+def standing(cameras: list[Camera], off_floor: list[np.ndarray], region: ObjectRegion, n: int = HULL_VOXELS
+             ) -> VoxelHull:
+    """The voxels above the support that at least :data:`STANDING_AGREE` of the views seeing them (and at least
+    three) see off the floor (``off_floor``, :mod:`.floor`: a pixel whose ray meets the support where the other
+    views see something else), in the box the object can reach (:func:`_box`). One view's off-floor pixels
+    hold ghosts too — the floor its neighbours cannot see past the object — that other views do not confirm;
+    a tripod's legs, which a busy carpet's colours hide from the cuts, every view does. Near a bulky object the
+    views' ghosts agree into a halo round its foot: what this hull says must be weighed (:mod:`.thin`)."""
+    lo, hi = _box(region)
+    voxel = float((hi - lo).max()) / n
+    axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    above = np.flatnonzero(region.height(grid) > PLANE_TOL * region.radius)
+    pts = grid[above].astype(np.float32)
+    seen = np.zeros(len(pts), np.int32)
+    off = np.zeros(len(pts), np.int32)
+    for cam, m in zip(cameras, off_floor):
+        uv, ok = in_view(cam, pts)
+        H, W = m.shape
+        u = np.clip((uv[ok, 0] * W / cam.width).astype(int), 0, W - 1)
+        v = np.clip((uv[ok, 1] * H / cam.height).astype(int), 0, H - 1)
+        seen[ok] += 1
+        off[np.flatnonzero(ok)[m[v, u]]] += 1
+    occupied = np.zeros(len(grid), bool)
+    occupied[above[(seen >= 3) & (off >= STANDING_AGREE * seen)]] = True
+    return VoxelHull(occupied.reshape([len(a) for a in axes]), lo + voxel / 2, voxel)
 
 
 def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, n: int = HULL_VOXELS,

@@ -8,6 +8,9 @@ view, and the floor seen in a crease between two parts. What the views agree on 
 enough for a part a few pixels across, and what stands out of the final hull farther than a fringe does,
 joined to it at a base rather than along its length, is a thin part: each view gets back the pixels of its
 first mask that part covers.
+
+A thin part that comes down to the floor (a tripod's legs) cannot be told that way from a patch of floor the
+first masks agree on; the floor cue can (:func:`standing_parts`).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import numpy as np
 from scipy import ndimage
 
 from ...cameras import Camera
-from .hull import AGREE, FIRST_AGREE, VoxelHull, called_object, carve, shadow
+from .hull import AGREE, FIRST_AGREE, VoxelHull, called_object, carve, shadow, standing
 from .region import ObjectRegion
 
 THIN_VOXELS = 128
@@ -42,11 +45,23 @@ a fillet of floor in a crease between two parts (the corner between a parcel's b
 the generous first masks agree on) lies along the body its whole length: 1.7-3.2."""
 
 
+STANDING_REACH = 0.3
+"""Scene radii a part standing on the support (:func:`standing_parts`) reaches out of the hull, and rises above
+the support, at least: the ghosts of the floor cue round a bulky object's foot agree on a halo that reaches
+0.1-0.2 out and up (a patch at the carpet parcel's box's corner: 0.32 out, 0.17 up); a tripod's legs reach a
+radius out and rise to its head (1.2)."""
+STANDING_BASE = 0.35
+"""... and the voxels by which it joins the hull at most this many times its own: it joins at a narrow base (the
+carpet tripod's legs: 0.05; a thin leg of a few voxels across, whose base is as thick as it: 0.3), while the
+halo round the carpet teapot's body lies along it (0.48) and rises up its side."""
+
+
 def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray], np.ndarray] | None = None,
-                fringe: int = FRINGE, min_out: int = MIN_OUT) -> VoxelHull:
+                fringe: int = FRINGE, min_out: int = MIN_OUT, max_part: float = MAX_PART,
+                max_base: float = MAX_BASE) -> VoxelHull:
     """The voxels of ``fine`` that stand out of ``body`` (on the same grid) as a thin part does: the pieces of
     it farther than ``fringe`` voxels from ``body`` that reach at least ``min_out`` voxels out, hold at most
-    :data:`MAX_PART` of ``body``'s volume, join it at a base (:data:`MAX_BASE`) and do not come down to the
+    ``max_part`` of ``body``'s volume, join it at a base (``max_base``) and do not come down to the
     support (within ``fringe + 1`` voxels of it by ``height``, world points → height above the support: a patch
     of floor the generous masks agree on beside the object's foot, rising a few voxels up its side, is no thin
     part; a thin part standing on the floor cannot be told from one), with what joins them to ``body``
@@ -64,11 +79,11 @@ def protrusions(fine: VoxelHull, body: VoxelHull, height: Callable[[np.ndarray],
     far = np.asarray(ndimage.maximum(reach, labels, index))
     size = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     near = np.asarray(ndimage.minimum(reach, labels, index))  # attached: it starts where the fringe ends
-    ok = (far >= min_out) & (near <= fringe + 1.5) & (size <= MAX_PART * inside.sum())
+    ok = (far >= min_out) & (near <= fringe + 1.5) & (size <= max_part * inside.sum())
     rim = out & (reach <= fringe + 1)
     boxes = ndimage.find_objects(labels)
     for k in np.flatnonzero(ok):
-        ok[k] = _base(labels, k + 1, boxes[k], rim, fringe) <= MAX_BASE * size[k]
+        ok[k] = _base(labels, k + 1, boxes[k], rim, fringe) <= max_base * size[k]
     if height is not None and ok.any():
         h = height(fine.origin + np.argwhere(labels > 0) * fine.voxel)
         ok &= np.asarray(ndimage.minimum(h, labels[labels > 0], index)) > (fringe + 1) * fine.voxel
@@ -106,6 +121,39 @@ def restore_thin_parts(cameras: list[Camera], first: list[np.ndarray], final: li
     if count == 0:
         return final, 0
     return [_attached(m, f & shadow(c, thin, m.shape)) for c, f, m in zip(cameras, first, final)], count
+
+
+def standing_parts(cameras: list[Camera], first: list[np.ndarray], final: list[np.ndarray], region: ObjectRegion,
+                   off_floor: list[np.ndarray]) -> tuple[list[np.ndarray], int]:
+    """``final`` masks with the parts standing on the support that the cuts lost put back from the ``first``
+    masks: a tripod's legs on a busy carpet, as dark as its pattern, which the cuts took away with the carpet
+    between them, and which :func:`restore_thin_parts` may not tell from a patch of floor (they come down to
+    it). The floor cue tells them (:func:`.hull.standing`): a piece of what every view sees off the floor that
+    stands out of the final masks' hull farther than the halo of agreeing ghosts round a bulky object's foot
+    does (:data:`STANDING_REACH`) and joins it at a narrow base (:data:`STANDING_BASE`). Returns the masks and
+    the parts' voxel count. ``off_floor``: each view's off-floor pixels."""
+    stands = standing(cameras, off_floor, region)
+    if not stands.occupied.any():
+        return final, 0
+    # the final masks' hull on the same grid, where it matters: near what stands
+    near = np.argwhere(ndimage.binary_dilation(stands.occupied, iterations=FRINGE + 2))
+    body = np.zeros_like(stands.occupied)
+    body[tuple(near[called_object(cameras, final, stands.origin + near * stands.voxel, AGREE)].T)] = True
+    reach = int(np.ceil(STANDING_REACH * region.radius / stands.voxel))
+    parts = protrusions(VoxelHull(stands.occupied | body, stands.origin, stands.voxel),
+                        VoxelHull(body, stands.origin, stands.voxel), None, min_out=reach, max_part=np.inf,
+                        max_base=STANDING_BASE)
+    # and it rises from the support: a patch of floor the halo holds at a box's corner stays at its foot
+    labels, n = ndimage.label(parts.occupied, np.ones((3, 3, 3), bool))
+    if n:
+        top = ndimage.maximum(region.height(parts.origin + np.argwhere(labels > 0) * parts.voxel),
+                              labels[labels > 0], np.arange(1, n + 1))
+        parts = VoxelHull(np.isin(labels, 1 + np.flatnonzero(np.asarray(top) >= STANDING_REACH * region.radius)),
+                          parts.origin, parts.voxel)
+    count = int(parts.occupied.sum())
+    if count == 0:
+        return final, 0
+    return [_attached(m, f & shadow(c, parts, m.shape)) for c, f, m in zip(cameras, first, final)], count
 
 
 def _attached(mask: np.ndarray, extra: np.ndarray) -> np.ndarray:
