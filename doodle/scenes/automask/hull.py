@@ -105,18 +105,8 @@ def standing(cameras: list[Camera], off_floor: list[np.ndarray], region: ObjectR
     axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     above = np.flatnonzero(region.height(grid) > PLANE_TOL * region.radius)
-    pts = grid[above].astype(np.float32)
-    seen = np.zeros(len(pts), np.int32)
-    off = np.zeros(len(pts), np.int32)
-    for cam, m in zip(cameras, off_floor):
-        uv, ok = in_view(cam, pts)
-        H, W = m.shape
-        u = np.clip((uv[ok, 0] * W / cam.width).astype(int), 0, W - 1)
-        v = np.clip((uv[ok, 1] * H / cam.height).astype(int), 0, H - 1)
-        seen[ok] += 1
-        off[np.flatnonzero(ok)[m[v, u]]] += 1
     occupied = np.zeros(len(grid), bool)
-    occupied[above[(seen >= 3) & (off >= STANDING_AGREE * seen)]] = True
+    occupied[above[called_object(cameras, off_floor, grid[above], STANDING_AGREE)]] = True
     return VoxelHull(occupied.reshape([len(a) for a in axes]), lo + voxel / 2, voxel)
 
 
