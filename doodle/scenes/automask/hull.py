@@ -100,13 +100,20 @@ def standing(cameras: list[Camera], off_floor: list[np.ndarray], region: ObjectR
     hold ghosts too — the floor its neighbours cannot see past the object — that other views do not confirm;
     a tripod's legs, which a busy carpet's colours hide from the cuts, every view does. Near a bulky object the
     views' ghosts agree into a halo round its foot: what this hull says must be weighed (:mod:`.thin`)."""
-    lo, hi = _box(region)
+    return _voted(cameras, off_floor, region, n, STANDING_AGREE, _box(region))
+
+
+def _voted(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, n: int, agree: float,
+           box: tuple[np.ndarray, np.ndarray]) -> VoxelHull:
+    """The voxels of an ``n``-voxel grid over ``box`` (``(lo, hi)``, world) above the support that at least
+    ``agree`` of the views seeing them call object in ``masks`` (:func:`called_object`)."""
+    lo, hi = box
     voxel = float((hi - lo).max()) / n
     axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     above = np.flatnonzero(region.height(grid) > PLANE_TOL * region.radius)
     occupied = np.zeros(len(grid), bool)
-    occupied[above[called_object(cameras, off_floor, grid[above], STANDING_AGREE)]] = True
+    occupied[above[called_object(cameras, masks, grid[above], agree)]] = True
     return VoxelHull(occupied.reshape([len(a) for a in axes]), lo + voxel / 2, voxel)
 
 
@@ -114,22 +121,18 @@ def carve(cameras: list[Camera], masks: list[np.ndarray], region: ObjectRegion, 
           agree: float = AGREE, box: tuple[np.ndarray, np.ndarray] | None = None) -> VoxelHull:
     """The voxels at least ``agree`` of the views seeing them call object, above the support, in ``box``
     (``(lo, hi)``, world; default: the box the object can reach, :func:`_box`)."""
-    lo, hi = _box(region) if box is None else box
-    voxel = float((hi - lo).max()) / n
-    axes = [np.arange(lo[a] + voxel / 2, hi[a], voxel) for a in range(3)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    keep = called_object(cameras, masks, grid, agree) & (region.height(grid) > PLANE_TOL * region.radius)
-    occupied = keep.reshape([len(a) for a in axes])
+    voted = _voted(cameras, masks, region, n, agree, _box(region) if box is None else box)
+    occupied, origin, voxel = voted.occupied, voted.origin, voted.voxel
     # what stands apart from the object's body is not the object (a patch of floor a few cuts took)
     labels, count = ndimage.label(occupied)
     if count > 1:
-        ijk = np.floor((region.object_points - (lo + voxel / 2)) / voxel + 0.5).astype(int)
+        ijk = np.floor((region.object_points - origin) / voxel + 0.5).astype(int)
         ok = np.all((ijk >= 0) & (ijk < occupied.shape), axis=1)
         hits = np.bincount(labels[tuple(ijk[ok].T)], minlength=count + 1)[1:]
         sizes = np.bincount(labels.ravel(), minlength=count + 1)[1:]
         keep_labels = 1 + np.flatnonzero((hits > 0) | (sizes >= 0.2 * sizes.max()))
         occupied = np.isin(labels, keep_labels)
-    return VoxelHull(occupied, lo + voxel / 2, voxel)
+    return VoxelHull(occupied, origin, voxel)
 
 
 def shadow(cam: Camera, hull: VoxelHull, shape: tuple[int, int]) -> np.ndarray:
