@@ -74,6 +74,20 @@ class PathOp:
         return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 
+def curve_of(path_id: str) -> int | None:
+    """The curve a path draws, read from its id (``curve-NNN``, ``contour-NNN``, either also ``hidden-…``);
+    ``None`` for a superquadric's silhouette (``silhouette-III-K``) or the hull's ``outline``."""
+    kind, _, n = path_id.removeprefix("hidden-").rpartition("-")
+    return int(n) if kind in ("curve", "contour") else None
+
+
+def superquadric_of(path_id: str) -> int | None:
+    """The superquadric whose silhouette a path draws, read from its id (``silhouette-III-K``, also
+    ``hidden-…``); ``None`` for a curve's path or the hull's ``outline``."""
+    parts = path_id.removeprefix("hidden-").split("-")
+    return int(parts[1]) if parts[0] == "silhouette" else None
+
+
 @dataclass
 class Drawing:
     camera: Camera

@@ -84,12 +84,16 @@ def ink_paths(img: np.ndarray, ops) -> np.ndarray:
     return img
 
 
-def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int]) -> list[dict[int, np.ndarray]]:
-    """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)``."""
+def raster_layer(drawings, cameras: list[Camera], layer: str, owner_of: Callable[[str], int | None]
+                 ) -> list[dict[int, np.ndarray]]:
+    """Per view, pixel masks of a layer's paths, grouped by ``owner_of(path id)`` (``drawing.curve_of``,
+    ``drawing.superquadric_of``); a path it names no owner of is left out."""
     out = []
     for cam, d in zip(cameras, drawings):
         per: dict[int, np.ndarray] = {}
         for op in d.layer(layer):
-            ink_paths(per.setdefault(owner_of(op.id), np.zeros((cam.height, cam.width), bool)), [op])
+            owner = owner_of(op.id)
+            if owner is not None:
+                ink_paths(per.setdefault(owner, np.zeros((cam.height, cam.width), bool)), [op])
         out.append(per)
     return out

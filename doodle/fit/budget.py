@@ -24,12 +24,6 @@ from ..exporters.raster import ink_paths
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 
 
-def _owner(path_id: str) -> int | None:
-    """The curve a drawn path belongs to (``curve-012``, ``contour-012``); ``None`` for a superquadric's."""
-    kind, _, n = path_id.rpartition("-")
-    return int(n) if kind in ("curve", "contour") else None
-
-
 def closed_chains(control: np.ndarray, tolerance: float) -> np.ndarray:
     """``int (N,)``: a label per cubic of ``control`` ``(N, 4, 3)``: the cubics of a closed chain (consecutive,
     each starting within ``tolerance`` of where the one before ends, the last ending at the first's start) share
@@ -62,7 +56,7 @@ def telling_ink(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, camera
         ``count[v]`` ``(H·W,)``: how many units ink each pixel there, a large number where a superquadric's
         outline does (never any unit's alone).
     """
-    from ..exporters.drawing import DrawOptions, draw_many
+    from ..exporters.drawing import DrawOptions, curve_of, draw_many
 
     units = np.arange(len(curves)) if units is None else np.asarray(units)
     n_units = int(units.max()) + 1 if len(units) else 0
@@ -76,7 +70,7 @@ def telling_ink(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, camera
         for op in drawing.paths:
             if op.layer == "hidden":
                 continue
-            owner = _owner(op.id)
+            owner = curve_of(op.id)
             ink_paths(outline if owner is None else per[units[owner]], [op])
         near = [np.flatnonzero(ndimage.binary_dilation(img) & lm) if img.any() else np.zeros(0, np.int64)
                 for img in per]

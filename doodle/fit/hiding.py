@@ -30,10 +30,6 @@ plus the hidden ink off the lines, pooled over the training views. Held-out F: C
 within ±0.001; at 0.5 and 0.6 a hex nut's bottom chamfer shows through its top face (ABC-NEF 0.906 → 0.894)."""
 
 
-def _curve_owner(path_id: str) -> int:
-    return int(path_id.rsplit("-", 1)[1])
-
-
 def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera],
                    lines: list[np.ndarray], min_share: float = MIN_HIDDEN_ON_LINES, tau_px: int = 2,
                    occluder: Voxels | None = None, hull: Voxels | None = None) -> np.ndarray:
@@ -51,16 +47,16 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
     features = curves.gates == 0  # a contour curve's normal decides where it is an outline, not what it hides
     if curves.normals is None or not np.any(curves.normals[features]):
         return np.zeros(len(curves), bool)
-    from ..exporters.drawing import DrawOptions, draw_many
+    from ..exporters.drawing import DrawOptions, curve_of, draw_many
 
     opts = DrawOptions(hidden="hide", silhouette_grid=(32, 64), tolerance=0.5, min_mark=0.0)
     drawings = draw_many(StrokeSet(frame, curves, sq, occluder=occluder, hull=hull), cameras, opts)
-    facing = raster_layer(drawings, cameras, "curves", _curve_owner)
+    facing = raster_layer(drawings, cameras, "curves", curve_of)
     # the curves again without normals; the outlines are the same, so they are not drawn twice
     plain_normals = curves.normals.copy()
     plain_normals[features] = 0.0
     plain = raster_layer(draw_many(StrokeSet(frame, replace(curves, normals=plain_normals), sq, occluder=occluder), cameras,
-                                   replace(opts, silhouettes=False)), cameras, "curves", _curve_owner)
+                                   replace(opts, silhouettes=False)), cameras, "curves", curve_of)
     gain, cost = np.zeros(len(curves)), np.zeros(len(curves))
     for cam, d, with_normals, without, lm in zip(cameras, drawings, facing, plain, lines):
         # Ink on a line the sketch leaves undrawn is what showing the curve gains; ink off the lines (more

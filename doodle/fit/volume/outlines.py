@@ -87,13 +87,13 @@ def outline_layers(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera]
     """Per view, each superquadric's own visible outline as drawn alone, ``{index: bool (H, W)}``. Hiding uses
     every superquadric whether drawn or not (and the ``occluder``), so one drawing of all of them, split by
     owner, gives each one's outline."""
-    from ...exporters.drawing import DrawOptions, draw_many
+    from ...exporters.drawing import DrawOptions, draw_many, superquadric_of
 
     every = replace(sq, outline=np.ones(len(sq), bool))
     drawings = draw_many(StrokeSet(frame, CurveSet(), every, occluder=occluder), cameras,
                          DrawOptions(curves=False, hidden="hide", silhouette_grid=(32, 64), tolerance=0.5,
                                      min_mark=0.0))
-    return raster_layer(drawings, cameras, "silhouettes", _silhouette_owner)
+    return raster_layer(drawings, cameras, "silhouettes", superquadric_of)
 
 
 def outline_precision(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camera], lines: list[np.ndarray],
@@ -261,11 +261,6 @@ def confirm_outlines(sq: SuperquadricSet, frame: SceneFrame, cameras: list[Camer
         return replace(sq, outline_cells=None)
     cells = confirmed_cells(sq, frame, cameras, lines, masks, occluder=occluder) | ~sq.drawn[:, None, None]
     return replace(sq, outline_cells=None if cells.all() else cells)
-
-
-def _silhouette_owner(path_id: str) -> int:
-    """The superquadric that drew a silhouette path (ids ``silhouette-IIII-K``, see ``exporters.drawing``)."""
-    return int(path_id.split("-")[1])
 
 
 def inside_share(sq: SuperquadricSet, cameras: list[Camera], masks: list[np.ndarray], size: int = 96,
