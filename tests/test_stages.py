@@ -184,3 +184,27 @@ def test_max_bytes_leaves_out_curves_until_the_file_fits(snowman_dir, tmp_path, 
     for c in small.curves.control_points:
         assert np.abs(whole.curves.control_points - c).max(axis=(1, 2)).min() < 2e-3  # the binary's quantum
     assert np.allclose(small.superquadrics.drawn, whole.superquadrics.drawn)
+
+
+def test_a_fit_interrupted_before_the_curves_stage_is_cut_to_max_bytes(snowman_dir, tmp_path, monkeypatch):
+    """Stopped in the superquadrics stage, the file holds discovery's curves beside the hull's outline: they
+    are cut to ``--max-bytes`` as the curves stage cuts them (the hull's outline, standing in until
+    ``--resume``, not counted), a subset of the uncut ones."""
+    from dataclasses import replace
+
+    def interrupted(cap: int):
+        out = tmp_path / f"s{cap}.doodleb"
+        _ctrl_c_at(monkeypatch, "superquadrics")
+        r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL, "--max-bytes", str(cap)])
+        monkeypatch.undo()
+        assert r.exit_code == 130, r.output
+        return read_strokes(out)
+
+    whole = interrupted(0)
+    assert whole.hull is not None and len(whole.curves) > 2
+    cap = len(encode(replace(whole, hull=None))) - 12
+    cut = interrupted(cap)
+    assert cut.hull is not None and 0 < len(cut.curves) < len(whole.curves)
+    assert len(encode(replace(cut, hull=None))) <= cap
+    for c in cut.curves.control_points:
+        assert np.abs(whole.curves.control_points - c).max(axis=(1, 2)).min() < 2e-3

@@ -2,7 +2,8 @@
 
 After an interruption it is the best stroke set the finished stages give: the chosen curves and the
 superquadrics when the curves stage ran; discovery's strong curves beside the superquadrics (or, when none
-draws, the carved hull's outline) when it did not; the hull's outline alone after the volume stage.
+draws, the carved hull's outline) when it did not, cut to ``--max-bytes`` as the curves stage cuts them; the
+hull's outline alone after the volume stage.
 ``None`` when no stage finished that draws anything.
 """
 
@@ -25,6 +26,13 @@ def assemble(state: FitState) -> StrokeSet | None:
         found = state.found if state.discovering else None  # the gradient path's start is not fitted yet
         curves = CurveSet(found.control_points, cfg.width_px, found.normals, found.contour) if found is not None \
             else CurveSet(width_px=cfg.width_px)
+        if cfg.max_bytes and not cfg.outline_hull and len(curves):
+            # cut as the curves stage would have cut them (a carpet tripod stopped in the superquadrics stage
+            # wrote 40 curves, 4,370 B, under the default 2,500); the hull's outline standing in below is not
+            # counted, as the fallback's is not
+            from .curves import within_bytes
+
+            curves = within_bytes(state, curves)
         if not sq.drawn.any() and hull is None and state.carving is not None:
             from ..volume.hull import outline_hull
 

@@ -148,10 +148,10 @@ def _first_pass(center: np.ndarray, r: float, up: np.ndarray, cameras: list[Came
         touch_lo = np.array([np.take(box, 0, axis=a).any() for a in range(3)]) & ~below_lo
         touch_hi = np.array([np.take(box, -1, axis=a).any() for a in range(3)]) & ~below_hi
         if attempt == GROW_TRIES or not (touch_lo.any() or touch_hi.any()):
-            return pts0, maybe0, cell
+            break
         lo = lo - touch_lo * GROW * r
         hi = hi + touch_hi * GROW * r
-    raise AssertionError("unreachable")
+    return pts0, maybe0, cell
 
 
 def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_seen_frac: float = 0.3,
