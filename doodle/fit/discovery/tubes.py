@@ -1,4 +1,4 @@
-"""Tubes: a handle, a cable loop — a curved thin part drawn as a person draws it, its two sides.
+"""Tubes: a handle — a curved thin part drawn as a person draws it, its two sides.
 
 A thin part bent in a plane (a mug's or a teapot's handle) has two outlines that every view sees about where
 they are: its outer and inner side in that plane. Seen square to the plane they are its silhouette; seen at
@@ -9,7 +9,8 @@ in every view. They are offered as candidates; the choice takes them when they e
 
 The tube's axis is the skeleton of the hull's thin part (what an opening by a ball of the thin parts' radius
 takes away), its radius the hull's depth along it; a straight part (a leg, a pole) has no plane and keeps
-its one line along the axis (:func:`.evidence.object_lines`).
+its one line along the axis (:func:`.evidence.object_lines`), and a cable a few voxels thick (the tripod's
+loop) is drawn by that line too.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ def find_tubes(grid: VoxelGrid, occupied: np.ndarray) -> list[Tube]:
         if box is None:
             continue
         part = labels[box] == k
-        if part.sum() < MIN_LENGTH * r * r:
+        if part.sum() < MIN_LENGTH * r * r:  # a speck, or a fragment of a part a few pixels across
             continue
         axis = _axis(part)
         if axis is None:
