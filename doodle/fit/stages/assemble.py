@@ -27,9 +27,9 @@ def assemble(state: FitState) -> StrokeSet | None:
         curves = CurveSet(found.control_points, cfg.width_px, found.normals, found.contour) if found is not None \
             else CurveSet(width_px=cfg.width_px)
         if cfg.max_bytes and not cfg.outline_hull and len(curves):
-            # cut as the curves stage would have cut them (discovery's curves over the budget, the skull's at
-            # `medium`, were written whole); the hull's outline standing in below is not counted, as the
-            # fallback's is not: `--resume` replaces it
+            # cut as the curves stage would have cut them (discovery's curves over a small --max-bytes were
+            # written whole); the hull's outline standing in below is not counted, as the fallback's is not:
+            # `--resume` replaces it
             from .curves import within_bytes
 
             curves = within_bytes(state, curves)
