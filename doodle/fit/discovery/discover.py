@@ -85,7 +85,7 @@ OUTLINE_WEIGHT = 1.5
 #: :func:`choose_curves`).
 OUTLINE_MIN_GAIN = 0.000125
 #: A curved thin part (a handle) is offered as its two sides in its plane, in place of the evidence's pieces
-#: and the views' traces along it (:mod:`.tubes`): the teapot's handle, a tangle of 4-17 pieces, is two arcs.
+#: and the views' traces along it (:mod:`.tubes`): the teapot's handle, a tangle of 13 pieces, is two arcs.
 TUBES = True
 #: The level's outline strokes are chosen whenever the strokes chosen (with the superquadrics' outlines) draw
 #: less than this share of the outline pixels, not only once the curve budget is spent: an outline open where

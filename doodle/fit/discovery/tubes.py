@@ -3,8 +3,8 @@
 A thin part bent in a plane (a mug's or a teapot's handle) has two outlines that every view sees about where
 they are: its outer and inner side in that plane. Seen square to the plane they are its silhouette; seen at
 a slant they come nearer each other as the tube's own outline does. The evidence's ridges along such a part
-are many and short — each view's two rims vote where that view saw them, so the choice picked four to
-seventeen pieces along a teapot's handle, a tangle — while these two curves, each in one piece, draw it whole
+are many and short — each view's two rims vote where that view saw them, so the choice picked 13 of the
+teapot's 27 cubics along its handle, a tangle — while these two curves, each in one piece, draw it whole
 in every view. They are offered as candidates; the choice takes them when they explain the views' lines.
 
 The tube's axis is the skeleton of the hull's thin part (what an opening by a ball of the thin parts' radius
