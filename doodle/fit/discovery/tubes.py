@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 from scipy.sparse import csgraph, coo_matrix
+from scipy.spatial import cKDTree
 
 from ...arrays import along_polyline
 from ..volume.carve import VoxelGrid, coarsened
@@ -100,8 +101,6 @@ def in_tubes(polylines: list[np.ndarray], tubes: list[Tube], reach: float = 1.5,
              share: float = 0.6) -> np.ndarray:
     """``(N,)`` bool: which polylines lie mostly (``share`` of their points) within ``reach`` radii of a tube's
     axis: the evidence's pieces along a handle that its two sides draw."""
-    from scipy.spatial import cKDTree
-
     inside = np.zeros(len(polylines), bool)
     for tube in tubes:
         tree = cKDTree(tube.axis)
