@@ -266,9 +266,9 @@ class TestCheckpoints:
         """Interrupted in the curves' gradient stage, a fit resumes with the curves it chose: the contour curves
         and their gates come from the checkpoint."""
         scene = load_scene(snowman_dir)
-        cfg = quick(superquadrics=0, iterations=30)
+        cfg = quick(superquadrics=0, iterations=12)
         ckpt = tmp_path / "s.ckpt"
-        self._interrupting(monkeypatch, 10)
+        self._interrupting(monkeypatch, 5)
         first = fit(scene, cfg, checkpoint=ckpt, progress=False, log=lambda m: None).strokes.curves
         assert (first.gates > 0).any()
         monkeypatch.undo()
