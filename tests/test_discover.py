@@ -65,6 +65,21 @@ class TestLines:
         ys, xs = np.nonzero(axes)
         assert len(ys) > 30 and np.all((ys >= 36) & (ys < 40)) and xs.min() >= 60
 
+    def test_a_thin_part_wide_in_the_image_is_drawn_by_its_rims_not_its_axis(self):
+        """Two thin parts off a disc on a 256 px image: a 4-px wire (its axis is a line: one stroke draws both
+        rims) and a 10-px leg (wider than 2 % of the image: its rims are lines, its middle is not)."""
+        mask = np.zeros((256, 256), bool)
+        yy, xx = np.mgrid[:256, :256]
+        mask |= (yy - 100) ** 2 + (xx - 80) ** 2 < 60**2
+        mask[60:64, 130:240] = True  # the wire
+        mask[150:160, 130:240] = True  # the leg
+        region = thin_parts(mask, thin=0.06)[1]
+        assert region[60:64, 170:230].all() and region[150:160, 170:230].all()  # both are thin parts
+        lines = object_lines(np.full((256, 256, 3), 128, np.uint8), mask)
+        assert lines[61:63, 170:230].any(axis=0).all()  # the wire's axis
+        assert not lines[153:157, 150:230].any()  # nothing down the leg's middle ...
+        assert lines[150, 170:230].all() and lines[159, 170:230].all()  # ... its rims
+
 
 def test_line_maps_on_the_objects_box_equal_those_on_the_whole_frame(chair, monkeypatch):
     from doodle.fit.discovery import evidence

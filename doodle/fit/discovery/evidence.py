@@ -76,7 +76,14 @@ def _gradients(image: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray,
     return gray, ndimage.sobel(smooth, 1), ndimage.sobel(smooth, 0)
 
 
-def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin) -> np.ndarray:
+AXIS_MAX_WIDTH = 0.02
+"""A thin part's axis is a line of the evidence only where the part is at most this share of the image's larger
+side wide (5 px at 256): there one stroke draws both rims within the lines' tolerance. A wider part (a chair's
+leg, a lamp's pole at 10 px) is drawn by its rims, as a person draws it; its axis was a line down its middle
+(the chair's held-out precision 0.806 with it, 0.856 without)."""
+
+
+def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin, frame) -> np.ndarray:
     hi = high
     if mask is not None and density < 1:
         core = ndimage.binary_erosion(mask, iterations=2)
@@ -88,7 +95,9 @@ def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin) -> np.nd
     boundary = silhouette_boundary(mask)
     lines = boundary | (edges & ndimage.binary_dilation(mask, iterations=2))
     if thin > 0:
-        lines |= thin_parts(mask, thin, inside)[0]
+        axes = thin_parts(mask, thin, inside)[0]
+        half_width = ndimage.distance_transform_edt(mask) if inside is None else inside
+        lines |= axes & (2 * half_width <= AXIS_MAX_WIDTH * frame)
     return lines
 
 
@@ -103,12 +112,13 @@ def object_lines(image: np.ndarray, mask: np.ndarray | None, sigma: float = 1.5,
     ``density`` of the object's pixels seed an edge, so busy surfaces (studs, print) keep only their
     strongest lines. The low threshold is half the high one. A part narrower than ``thin`` × the object's
     size (a cable, a leg, a handle) adds its axis, which every view agrees on, while its two rims move with
-    the view (:func:`thin_parts`).
+    the view (:func:`thin_parts`), where it is narrow in the image too (:data:`AXIS_MAX_WIDTH`).
     """
     box = _object_box(mask)
     lines = np.zeros(image.shape[:2], bool)
     gray, gx, gy = _gradients(image[box], sigma)
-    lines[box] = _lines(gray, gx, gy, None if mask is None else mask[box], None, sigma, low, high, density, thin)
+    lines[box] = _lines(gray, gx, gy, None if mask is None else mask[box], None, sigma, low, high, density, thin,
+                        max(image.shape[:2]))
     return lines
 
 
@@ -160,7 +170,7 @@ def view_maps(image: np.ndarray, mask: np.ndarray, sigma: float = 1.5, sigma_px:
         sdf[box] = np.where(crop, inside, sdf[box])
         sdf = (sdf + slack_px).astype(np.float32)
     gray, gx, gy = _gradients(image[box], sigma)
-    lines = _lines(gray, gx, gy, crop, inside, sigma, 0.04, 0.08, 0.08, thin)
+    lines = _lines(gray, gx, gy, crop, inside, sigma, 0.04, 0.08, 0.08, thin, max(mask.shape))
     m = ndimage.gaussian_filter(crop.astype(np.float32), sigma)
     rim = crop ^ ndimage.binary_erosion(crop)
     gx = np.where(rim, ndimage.sobel(m, 1), gx)
