@@ -80,6 +80,23 @@ class TestLines:
         assert not lines[153:157, 150:230].any()  # nothing down the leg's middle ...
         assert lines[150, 170:230].all() and lines[159, 170:230].all()  # ... its rims
 
+    def test_a_thin_part_keeps_its_whole_axis_or_none_of_it(self):
+        """A pole tapering from 2 to 7 px (median width under the 5 px limit at 256 px) keeps its axis all
+        along, where it is 7 px wide too; the same pole from 4 to 9 px (median over the limit) has none."""
+        from doodle.fit.discovery.evidence import narrow_axes
+
+        def pole(w0: float, w1: float) -> np.ndarray:
+            mask = np.zeros((256, 256), bool)
+            yy, xx = np.mgrid[:256, :256]
+            mask |= (yy - 100) ** 2 + (xx - 80) ** 2 < 60**2
+            half = (w0 + (w1 - w0) * (xx - 130) / 110) / 2
+            mask |= (xx >= 130) & (xx < 240) & (np.abs(yy - 120 + 0.5) <= half)
+            return mask
+
+        tapered = narrow_axes(pole(2, 7), 0.06, None, 5.12)
+        assert tapered[110:131, 160:180].any(axis=0).all() and tapered[110:131, 215:232].any(axis=0).all()
+        assert not narrow_axes(pole(4, 9), 0.06, None, 5.12)[110:131, 140:240].any()
+
 
 def test_line_maps_on_the_objects_box_equal_those_on_the_whole_frame(chair, monkeypatch):
     from doodle.fit.discovery import evidence

@@ -95,10 +95,23 @@ def _lines(gray, gx, gy, mask, inside, sigma, low, high, density, thin, frame) -
     boundary = silhouette_boundary(mask)
     lines = boundary | (edges & ndimage.binary_dilation(mask, iterations=2))
     if thin > 0:
-        axes = thin_parts(mask, thin, inside)[0]
-        half_width = ndimage.distance_transform_edt(mask) if inside is None else inside
-        lines |= axes & (2 * half_width <= AXIS_MAX_WIDTH * frame)
+        lines |= narrow_axes(mask, thin, inside, AXIS_MAX_WIDTH * frame)
     return lines
+
+
+def narrow_axes(mask: np.ndarray, thin: float, inside: np.ndarray | None, max_width: float) -> np.ndarray:
+    """The axes of ``mask``'s thin parts (:func:`thin_parts`) whose median width along the axis is at most
+    ``max_width`` px. Judged part by part (each connected piece of the thin region), not pixel by pixel: a pole
+    whose width wavers about the limit keeps its whole axis or none of it, never pieces."""
+    axes, region = thin_parts(mask, thin, inside)
+    if not axes.any():
+        return axes
+    width = 2 * (ndimage.distance_transform_edt(mask) if inside is None else inside)
+    labels, n = ndimage.label(region, np.ones((3, 3), bool))
+    on = axes & (labels > 0)
+    median = np.asarray(ndimage.median(width[on], labels[on], np.arange(1, n + 1)))
+    keep = np.concatenate([[False], median <= max_width])
+    return on & keep[labels]
 
 
 def object_lines(image: np.ndarray, mask: np.ndarray | None, sigma: float = 1.5, low: float = 0.04,
