@@ -103,10 +103,11 @@ def narrow_axes(mask: np.ndarray, thin: float, inside: np.ndarray | None, max_wi
     """The axes of ``mask``'s thin parts (:func:`thin_parts`) whose median width along the axis is at most
     ``max_width`` px. Judged part by part (each connected piece of the thin region), not pixel by pixel: a pole
     whose width wavers about the limit keeps its whole axis or none of it, never pieces."""
+    inside = ndimage.distance_transform_edt(mask) if inside is None else inside  # thin_parts reads it too
     axes, region = thin_parts(mask, thin, inside)
     if not axes.any():
         return axes
-    width = 2 * (ndimage.distance_transform_edt(mask) if inside is None else inside)
+    width = 2 * inside
     labels, n = ndimage.label(region, np.ones((3, 3), bool))
     on = axes & (labels > 0)
     median = np.asarray(ndimage.median(width[on], labels[on], np.arange(1, n + 1)))
