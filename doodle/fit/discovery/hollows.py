@@ -134,8 +134,10 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
     drops = np.zeros(len(pts), np.float32)
     centres = np.array([cameras[v].center for v in views])
     looked = []  # per view, the voxels it sees dark (for the rings' facing)
+    darks: dict[int, np.ndarray] = {}  # per view, its dark regions: the rings' tracing reads them again
     for v in views:
         dark, drop = dark_regions(images[v], masks[v])
+        darks[v] = dark
         u, w, z = project_points(cameras[v], pts)
         H, W = dark.shape
         ok = np.flatnonzero((z > 1e-6) & (u >= 0) & (w >= 0) & (u < W) & (w < H))
@@ -179,7 +181,7 @@ def find_hollows(grid: VoxelGrid, occupied: np.ndarray, cameras: list, images: l
         facing /= np.linalg.norm(facing)
         # its opening as the view facing it sees it; where that view sees nothing dark there, the vote's own
         # outline (the hollow's waist), moved out to the surface that bridges the opening
-        rings = _traced(p, facing, coarse.voxel, cameras, images, masks, depth)
+        rings = _traced(p, facing, coarse.voxel, cameras, images, masks, depth, darks)
         if not rings:
             ring = _ring(p, facing, coarse.voxel)
             if ring is None:
@@ -217,15 +219,19 @@ def clear_of(cubics: np.ndarray, facing: np.ndarray, sq, cameras: list, reach: f
 
 
 def _traced(points: np.ndarray, facing: np.ndarray, voxel: float, cameras: list, images: list, masks: list,
-            depth: list) -> list[np.ndarray]:
+            depth: list, darks: dict[int, np.ndarray] | None = None) -> list[np.ndarray]:
     """The opening of the hollow whose voxels are ``points`` ``(P, 3)``, traced in the view that looks most
     squarely into it (along ``facing``): the outlines of that view's dark regions (:func:`dark_regions`) lying
     mostly on the hollow's projection, each lifted to the hull's front depth there. ``[]`` when that view sees
     none. The vote's grid is too coarse for an opening's shape (a nose's two lobes and their septum, the
-    notch of a missing tooth); the view's pixels are not."""
+    notch of a missing tooth); the view's pixels are not. ``darks``: the views' dark regions already found, by
+    view index (filled in here as more are)."""
     to_eye = np.array([c.center for c in cameras]) - points.mean(0)
     v = int(np.argmax((to_eye / np.linalg.norm(to_eye, axis=1, keepdims=True)) @ facing))
-    cam, dark = cameras[v], dark_regions(images[v], masks[v])[0]
+    darks = {} if darks is None else darks
+    if v not in darks:
+        darks[v] = dark_regions(images[v], masks[v])[0]
+    cam, dark = cameras[v], darks[v]
     u, w, z = project_points(cam, points.astype(np.float32))
     H, W = dark.shape
     ok = (z > 1e-6) & (u >= 0) & (w >= 0) & (u < W) & (w < H)
