@@ -100,6 +100,23 @@ def test_undistort_moves_a_point_to_its_pinhole_projection():
     assert abs(ud - (100.0 * 0.45 + 61.0)) > 2  # the distortion was real (2.6 px here)
 
 
+def test_an_object_running_out_of_the_photo_runs_out_of_the_undistorted_view_too():
+    """Pincushion distortion pulls the pinhole view's edge rows from outside the photo: the mask there continues
+    the photo's edge, so an object cut by the frame still reaches it (else the hull carves it away there, and
+    the metrics count an outline no view shows); the background stays background."""
+    import pycolmap
+
+    from doodle.scenes.colmap import undistort
+
+    cam = pycolmap.Camera.create_from_model_name(1, "SIMPLE_RADIAL", 100.0, 120, 90)
+    cam.params = [100.0, 60.0, 45.0, 0.2]
+    mask = np.zeros((90, 120), bool)
+    mask[:50, 30:90] = True  # cut by the top of the photo
+    _, out = undistort(None, mask, cam, (120, 90))
+    assert out[0, 45:75].all() and out[:40, 45:75].all()
+    assert not out[0, :20].any() and not out[:, 110:].any() and not out[70:].any()
+
+
 def test_automatic_masks_match_the_truth_and_ignore_the_floor(capture, tmp_path, monkeypatch):
     from dataclasses import replace
 

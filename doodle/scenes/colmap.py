@@ -217,7 +217,10 @@ def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[
 
     ``rgb (h, w, 3)`` and ``mask (h, w)`` are the distorted image already resized to ``size = (w, h)``; the
     result has the same size and shows what a pinhole camera with ``cam``'s focal lengths and principal point
-    (scaled to ``size``) sees. Pixels that come from outside the photo are white (and not object).
+    (scaled to ``size``) sees. Pixels that come from outside the photo are white in the image; the mask there
+    continues the photo's edge: an object that runs out of the photo runs out of the pinhole view too, instead
+    of ending a pixel short of its frame — where the hull would carve it away (the frame is no outline; DTU's
+    cranium, cut by the top of 25 of its photos) and the metrics would count an outline no view shows.
     """
     from scipy import ndimage
 
@@ -235,5 +238,5 @@ def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[
                             for c in range(rgb.shape[2])], -1)
         out_rgb = np.clip(out_rgb + 0.5, 0, 255).astype(np.uint8)
     if mask is not None:
-        out_mask = ndimage.map_coordinates(mask.astype(np.float32), coords, order=1, cval=0.0) > 0.5
+        out_mask = ndimage.map_coordinates(mask.astype(np.float32), coords, order=1, mode="nearest") > 0.5
     return out_rgb, out_mask
