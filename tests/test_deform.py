@@ -152,7 +152,9 @@ def test_a_cone_is_one_tapered_superquadric_and_a_ball_stays_plain():
     origin, vox, (X, Y, Z) = _voxel_grid()
     h = (Z + 0.35) / 0.7
     cone = (h >= 0) & (h <= 1) & (np.hypot(X, Y) <= 0.5 * (1 - h))
-    found = abstract_volume(origin, vox, np.eye(3), cone, max_count=1, steps=60)
+    # at the abstraction's default steps: at 60 the tapered fit stopped short of the bar with numpy 2.4 / scipy
+    # 1.17 (IoU 0.741 against the 0.79 it must reach), where it had passed before
+    found = abstract_volume(origin, vox, np.eye(3), cone, max_count=1)
     # the plain fits choose the parts (a plain one leaves the tip to a second, not fitted here); the tapered
     # one alone explains the cone
     first = found.superquadrics
