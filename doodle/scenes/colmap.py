@@ -220,7 +220,7 @@ def undistort(rgb: np.ndarray | None, mask: np.ndarray | None, cam, size: tuple[
     (scaled to ``size``) sees. Pixels that come from outside the photo are white in the image; the mask there
     continues the photo's edge: an object that runs out of the photo runs out of the pinhole view too, instead
     of ending a pixel short of its frame — where the hull would carve it away (the frame is no outline; DTU's
-    cranium, cut by the top of 25 of its photos) and the metrics would count an outline no view shows.
+    skull, cut by the frame in 35 of its 49 photos) and the metrics would count an outline no view shows.
     """
     from scipy import ndimage
 
