@@ -57,3 +57,22 @@ def test_what_a_left_out_curve_shared_is_the_others_alone_after_it():
     # alone and Z one, so Z goes next — without the recount Y (still "nothing alone") would
     ink, count = _ink([0, 1], [0, 1], [5])
     assert least_telling_first(ink, count, lambda keep: keep.sum() <= 1).tolist() == [False, True, False]
+
+
+def test_a_units_ink_near_the_lines_is_found_on_its_box_as_on_the_frame():
+    """``_near_lines`` dilates a unit's ink on its box: the same pixels as on the whole frame, in the same order,
+    at the frame's edges too."""
+    from scipy import ndimage
+
+    from doodle.fit.budget import _near_lines
+
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        h, w = rng.integers(3, 40, 2)
+        ink = np.zeros((h, w), bool)
+        for _ in range(rng.integers(0, 5)):
+            y, x = rng.integers(0, h), rng.integers(0, w)
+            ink[y:y + rng.integers(1, 4), x:x + rng.integers(1, 4)] = True
+        lines = rng.random((h, w)) < 0.4
+        whole = np.flatnonzero(ndimage.binary_dilation(ink) & lines)
+        assert np.array_equal(_near_lines(ink, lines), whole)

@@ -62,3 +62,15 @@ def test_the_side_below_does_not_grow(snowman):
     bottom = frame.center[2] - carve.FIRST_SIDE * frame.radius
     assert lo2[2] >= bottom - grid.voxel
     assert lo2[2] > lo[2] + 2 * grid.voxel  # so the object was cut there
+
+
+def test_the_hull_carved_in_threads_is_the_hull_carved_in_one(snowman, monkeypatch):
+    """The views' counts are summed point by point, so the cells split among threads carve the same hull."""
+    work, _, _ = snowman
+    monkeypatch.setattr(carve, "CLASSIFY_CHUNK", 1 << 40)
+    one = carve_hull(work, 64)
+    monkeypatch.setattr(carve, "CLASSIFY_CHUNK", 1000)  # many chunks, as many threads as the machine has
+    monkeypatch.setattr(carve, "cpu_count", lambda: 8)
+    many = carve_hull(work, 64)
+    assert one[0].shape == many[0].shape and np.array_equal(one[0].origin, many[0].origin)
+    assert one[1].any() and np.array_equal(one[1], many[1])

@@ -184,3 +184,17 @@ def test_the_skulls_eye_sockets_nose_and_mouth_are_found():
     for name, at in annotated.items():
         assert any(points_in_poly([at], ring)[0] for ring in rings), (name, [r.mean(0).round() for r in rings])
     assert len(found) <= len(annotated) + 3
+
+
+def test_the_wide_local_mean_is_the_gaussians():
+    """The dark regions' local mean (a Gaussian tens of pixels wide) computed on blocks equals scipy's filter."""
+    from doodle.fit.discovery.hollows import wide_gaussian
+
+    rng = np.random.default_rng(0)
+    image = ndimage.gaussian_filter(rng.random((301, 403)), 4.0).astype(np.float32)
+    for sigma in (5.0, 24.0, 40.0):
+        fast, exact = wide_gaussian(image, sigma), ndimage.gaussian_filter(image, sigma)
+        spread = float(np.ptp(exact[60:-60, 60:-60]))
+        assert fast.shape == image.shape
+        assert np.abs(fast - exact)[60:-60, 60:-60].max() < 0.05 * spread
+        assert np.abs(fast - exact).max() < 0.3 * spread  # the image's edges: blocks reflected, not pixels

@@ -19,6 +19,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from ..arrays import ink_box
 from ..cameras import Camera
 from ..exporters.raster import ink_paths
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
@@ -72,8 +73,7 @@ def telling_ink(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, camera
                 continue
             owner = curve_of(op.id)
             ink_paths(outline if owner is None else per[units[owner]], [op])
-        near = [np.flatnonzero(ndimage.binary_dilation(img) & lm) if img.any() else np.zeros(0, np.int64)
-                for img in per]
+        near = [_near_lines(img, lm) for img in per]
         n = np.zeros(shape[0] * shape[1], np.int64)
         for pix in near:
             n[pix] += 1
@@ -81,6 +81,16 @@ def telling_ink(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, camera
         ink.append(near)
         count.append(n)
     return ink, count
+
+
+def _near_lines(ink: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Flat indices of ``lines`` pixels within a pixel of ``ink`` (``binary_dilation(ink) & lines``), found on
+    the ink's box."""
+    box = ink_box(ink)
+    if box is None:
+        return np.zeros(0, np.int64)
+    ys, xs = np.nonzero(ndimage.binary_dilation(ink[box]) & lines[box])
+    return (ys + box[0].start) * ink.shape[1] + xs + box[1].start
 
 
 def least_telling_first(ink: list[list[np.ndarray]], count: list[np.ndarray], fits: Callable[[np.ndarray], bool]

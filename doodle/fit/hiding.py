@@ -19,6 +19,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import ndimage
 
+from ..arrays import ink_box
 from ..cameras import Camera
 from ..strokes.model import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, Voxels
 from ..exporters.raster import ink_paths, raster_layer
@@ -68,8 +69,11 @@ def wrongly_hidden(curves: CurveSet, sq: SuperquadricSet, frame: SceneFrame, cam
         off = ~ndimage.binary_dilation(lm, iterations=tau_px + 1)
         for i, img in without.items():
             mine = with_normals.get(i)
+            box = ink_box(img)  # counted on the ink's box, a pixel wider for the dilation
+            if box is None:
+                continue
             # ink the normals hide; a pixel beside the shown ink is the same stroke, redrawn a little apart
-            extra = img if mine is None else img & ~ndimage.binary_dilation(mine)
-            gain[i] += (extra & undrawn).sum()
-            cost[i] += (extra & off).sum()
+            extra = img[box] if mine is None else img[box] & ~ndimage.binary_dilation(mine[box])
+            gain[i] += (extra & undrawn[box]).sum()
+            cost[i] += (extra & off[box]).sum()
     return features & (gain > 0) & (gain >= min_share * (gain + cost))

