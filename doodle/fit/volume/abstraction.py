@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -285,7 +285,7 @@ def torch_threads(count: int) -> Iterator[None]:
         torch.set_num_threads(threads)
 
 
-def one_torch_thread():
+def one_torch_thread() -> AbstractContextManager[None]:
     """torch on one thread while inside: the parts' problems are small (a few rows of at most 2,000 points),
     and a second thread's hand-offs cost more than it computes (the procedural cow's superquadric stage
     16.3 → 12.4 s on two cores, the same superquadrics). The union's refinement takes the cores back
