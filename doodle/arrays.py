@@ -189,7 +189,8 @@ def silhouette_boundary(mask: np.ndarray) -> np.ndarray:
 def ink_box(image: np.ndarray, margin: int = 1) -> tuple[slice, slice] | None:
     """The box of ``image``'s set pixels (``bool (H, W)``) grown by ``margin`` and clipped to the image, or
     ``None`` when none is set. A stroke's ink covers a few hundred of a view's pixels: dilating and counting
-    it on its box, grown by the dilation's reach, gives the whole frame's answer at a small part of its cost.
+    it on its box, grown by the dilation's reach, gives the whole frame's answer at a small part of its cost
+    (and a view's line maps are computed on its mask's box, grown by their filters' reach).
 
     >>> m = np.zeros((5, 6), bool); m[1, 2] = m[2, 4] = True
     >>> ink_box(m)

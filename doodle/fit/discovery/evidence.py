@@ -22,7 +22,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import feature
 
-from ...arrays import silhouette_boundary
+from ...arrays import ink_box, silhouette_boundary
 from ...cameras import Camera
 from ...scenes import Scene
 from ..volume.carve import VoxelGrid, carve_hull, project_points
@@ -145,11 +145,8 @@ that is drawn changes. On Lego the object fills a third of the frame, and the ma
 def _object_box(mask: np.ndarray | None) -> tuple[slice, slice]:
     """The mask's bounding box grown by :data:`CROP_PAD` px, clipped to the image (the whole image when there
     is no mask or it is empty)."""
-    if mask is None or not mask.any():
-        return slice(None), slice(None)
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    return (slice(max(rows[0] - CROP_PAD, 0), rows[-1] + 1 + CROP_PAD),
-            slice(max(cols[0] - CROP_PAD, 0), cols[-1] + 1 + CROP_PAD))
+    box = None if mask is None else ink_box(mask, CROP_PAD)
+    return (slice(None), slice(None)) if box is None else box
 
 
 @dataclass

@@ -102,6 +102,10 @@ FIRST_SIDE, FIRST_CELLS = 1.15, 48
 GROW, GROW_TRIES = 0.25, 4
 
 
+#: Points of one thread's share in :func:`_classify` at least (fewer are not worth a thread).
+CLASSIFY_CHUNK = 1 << 15
+
+
 def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray],
               min_seen: int, disagree: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Cells of centre ``points`` and half-diagonal ``half_diag``: ``(surely inside, possibly inside)``.
@@ -124,10 +128,6 @@ def _classify(points: np.ndarray, half_diag: float, cameras: list[Camera], sdf: 
     allowed = np.floor(disagree * seen)
     maybe = (outside <= allowed) & (seen >= min_seen)
     return maybe & (unsure <= allowed), maybe
-
-
-#: Points of one thread's share in :func:`_classify` at least (fewer are not worth a thread).
-CLASSIFY_CHUNK = 1 << 15
 
 
 def _view_counts(pts: np.ndarray, half_diag: float, cameras: list[Camera], sdf: list[np.ndarray]
