@@ -90,6 +90,18 @@ PRINTS = {"stripes": _stripes, "gores": _gores, "face": _face, "patches": _patch
 PRINT_INK = 0.3
 
 
+def bounding_sphere_hits(primitives: list["Primitive"], o: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``bool (K, P)``: whether ray ``k`` (origin ``o``, unit direction ``d``, ``(K, 3)``) meets primitive ``p``'s
+    bounding sphere not wholly behind its origin. All parts at once: ``(o − c)·d = o·d − c·d`` and
+    ``|o − c|² = |o|² − 2 o·c + |c|²`` are two matrix products instead of a pass over the rays per part."""
+    spheres = [p.bounding_sphere() for p in primitives]
+    c = np.array([centre for centre, _ in spheres], float).reshape(-1, 3)
+    r = np.array([radius for _, radius in spheres], float)
+    b = np.einsum("ij,ij->i", o, d)[:, None] - d @ c.T
+    oc2 = np.einsum("ij,ij->i", o, o)[:, None] - 2 * (o @ c.T) + (c * c).sum(axis=1)
+    return (b * b - (oc2 - r * r) >= 0) & (b < r)
+
+
 @dataclass
 class Primitive:
     """Base: pose and colour. Subclasses define the shape in the local frame."""
@@ -112,22 +124,29 @@ class Primitive:
         return (o - self.center) @ self.R, d @ self.R
 
     def intersect(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest hits of world rays ``(K, 3)`` (unit directions): distance ``(K,)`` (``inf`` on a miss) and
+        world normal ``(K, 3)``."""
         t = np.full(len(o), INF)
         n = np.zeros_like(o)
         # Only rays that meet the bounding sphere can hit: most pixels are background or other parts.
-        oc = o - self.center
-        b = np.einsum("ij,ij->i", oc, d)
-        r = self.bounding_radius()
-        near = (b * b - (np.einsum("ij,ij->i", oc, oc) - r * r) >= 0) & (b < r)
+        near = bounding_sphere_hits([self], o, d)[:, 0]
         if near.any():
-            ol, dl = self.to_local(o[near], d[near])
-            tn, nn = self._intersect_local(ol, dl)
-            t[near], n[near] = tn, nn @ self.R.T
+            t[near], n[near] = self.intersect_near(o[near], d[near])
         return t, n
+
+    def intersect_near(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`intersect` of rays already known to meet the bounding sphere (no culling)."""
+        ol, dl = self.to_local(o, d)
+        t, n = self._intersect_local(ol, dl)
+        return t, n @ self.R.T
 
     def bounding_radius(self) -> float:
         """Radius of a sphere around ``center`` that holds the primitive."""
         raise NotImplementedError
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        """World centre ``(3,)`` and radius of a small sphere that holds the primitive (the rays' cull)."""
+        return np.asarray(self.center, float), self.bounding_radius()
 
     def contains(self, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
         """Points within the primitive grown by ``margin`` (world units)."""
@@ -278,6 +297,10 @@ class Cylinder(Primitive):
     def bounding_radius(self):
         return math.hypot(self.radius, self.height)
 
+    def bounding_sphere(self):
+        # about the axis' middle: a leg's sphere about its foot covered twice the pixels
+        return self.center + self.R[:, 2] * (self.height / 2), math.hypot(self.radius, self.height / 2)
+
     def to_dict(self):
         return {**super().to_dict(), "radius": self.radius, "height": self.height}
 
@@ -318,6 +341,11 @@ class Cone(Primitive):
 
     def bounding_radius(self):
         return max(self.radius, self.height)
+
+    def bounding_sphere(self):
+        # the smallest about the axis holding the base's rim and the apex: sqrt(r² + z²) = h − z
+        z = max(0.0, (self.height**2 - self.radius**2) / (2 * self.height))
+        return self.center + self.R[:, 2] * z, self.height - z
 
     def to_dict(self):
         return {**super().to_dict(), "radius": self.radius, "height": self.height}

@@ -6,7 +6,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..cameras import Camera
-from .primitives import Primitive
+from .primitives import Primitive, bounding_sphere_hits
 
 # Two fixed world-space lights (key from above, fill from the side) so that faces of a box meeting at an edge
 # get clearly different brightness from every viewpoint: the edges the fitting should find are visible.
@@ -23,16 +23,21 @@ def cast(primitives: list[Primitive], origins: np.ndarray, dirs: np.ndarray) -> 
     n_best = np.zeros_like(origins)
     idx = np.full(len(origins), -1)
     # Cull rays that miss a sphere around the whole scene first: most pixels are background.
-    c = np.mean([p.center for p in primitives], axis=0)
-    r = max(np.linalg.norm(p.center - c) + p.bounding_radius() for p in primitives)
+    spheres = [p.bounding_sphere() for p in primitives]
+    c = np.mean([centre for centre, _ in spheres], axis=0)
+    r = max(np.linalg.norm(centre - c) + radius for centre, radius in spheres)
     oc = origins - c
     b = np.einsum("ij,ij->i", oc, dirs)
     live = np.flatnonzero(b * b - (np.einsum("ij,ij->i", oc, oc) - r * r) >= 0)
     o, d = origins[live], dirs[live]
+    near = bounding_sphere_hits(primitives, o, d)
     for i, prim in enumerate(primitives):
-        t, n = prim.intersect(o, d)
-        closer = t < t_best[live]
-        hit = live[closer]
+        rows = np.flatnonzero(near[:, i])
+        if not len(rows):
+            continue
+        t, n = prim.intersect_near(o[rows], d[rows])
+        closer = t < t_best[live[rows]]
+        hit = live[rows[closer]]
         t_best[hit], n_best[hit], idx[hit] = t[closer], n[closer], i
     return t_best, n_best, idx
 
