@@ -13,6 +13,7 @@ from typing import Callable
 import torch
 from tqdm import tqdm
 
+from ..adam import Adam
 from .objectives import Terms
 
 
@@ -57,7 +58,7 @@ def run_stage(
     moving average of the total loss (single steps are too noisy with random views and pixels).
     """
     state = state or StageState()
-    opt = torch.optim.Adam(module.parameters(), lr=lr)
+    opt = Adam(module.parameters(), lr=lr)
     if state.optimizer:
         opt.load_state_dict(state.optimizer)
 
