@@ -73,3 +73,35 @@ def test_refuses_to_overwrite(tmp_path):
 def test_unknown_name():
     with pytest.raises(DoodleError, match="chair, snowman, lamp"):
         write_sample("kettle", "/nonexistent/x")
+
+
+def test_every_part_lies_in_its_bounding_sphere_and_the_cast_is_each_parts_nearest_hit():
+    """The ray cast culls rays by the parts' bounding spheres: each sphere holds its part (points the part
+    contains, on a grid over its box), and the cast's hits are the nearest of every part's own hits without culling."""
+    from doodle.samples.primitives import Cone, Cylinder
+    from doodle.samples.raycast import cast
+
+    rng = np.random.default_rng(0)
+    tilted = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    parts = [Cylinder(center=np.array([0.1, -0.2, 0.0]), R=tilted, radius=0.05, height=1.2),  # a leg
+             Cone(center=np.array([0.0, 0.3, 0.1]), radius=0.4, height=0.3),  # wider than tall
+             Cone(center=np.array([-0.3, 0.0, 0.0]), R=tilted, radius=0.1, height=0.7)]  # a spout
+    for part in parts:
+        centre, radius = part.bounding_sphere()
+        reach = part.bounding_radius()  # about the part's origin (its base): a loose sphere that holds it
+        grid = part.center + rng.uniform(-reach, reach, size=(400_000, 3))
+        inside = grid[part.contains(grid)]
+        assert len(inside) > 100
+        assert np.linalg.norm(inside - centre, axis=1).max() <= radius + 1e-12
+    for name in ("tripod", "mug", "lamp"):
+        prims = SCENES[name]() + parts
+        o = np.tile([[0.2, -3.5, 1.5]], (4000, 1)) + rng.normal(scale=0.05, size=(4000, 3))
+        d = rng.normal(size=(4000, 3)) * [0.25, 0.0, 0.25] + [0.0, 1.0, -0.4]
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        t, n, idx = cast(prims, o, d)
+        each = [p.intersect_near(o, d) for p in prims]
+        nearest = np.min([e[0] for e in each], axis=0)
+        assert np.isfinite(t).sum() > 400
+        np.testing.assert_array_equal(t, nearest)
+        hit = np.isfinite(t)
+        np.testing.assert_array_equal(n[hit], np.array([each[k][1][j] for j, k in zip(np.flatnonzero(hit), idx[hit])]))

@@ -343,9 +343,10 @@ class Cone(Primitive):
         return max(self.radius, self.height)
 
     def bounding_sphere(self):
-        # the smallest about the axis holding the base's rim and the apex: sqrt(r² + z²) = h − z
+        # the smallest about the axis holding the base's rim and the apex: sqrt(r² + z²) = h − z, or about the
+        # base's centre for a cone wider than tall
         z = max(0.0, (self.height**2 - self.radius**2) / (2 * self.height))
-        return self.center + self.R[:, 2] * z, self.height - z
+        return self.center + self.R[:, 2] * z, max(self.height - z, math.hypot(self.radius, z))
 
     def to_dict(self):
         return {**super().to_dict(), "radius": self.radius, "height": self.height}
