@@ -100,18 +100,18 @@ def test_occlusion_culling_agrees_with_a_dense_march(seed):
     q = rng.normal(size=(5, 4))
     sq = SuperquadricSet(rng.uniform(0.1, 0.5, (5, 3)), rng.uniform(0.1, 1.9, (5, 2)),
                          q / np.linalg.norm(q, axis=1, keepdims=True), rng.uniform(-0.5, 0.5, (5, 3)))
-    o = rng.normal(size=(3000, 3))
+    o = rng.normal(size=(1500, 3))
     o = 3 * o / np.linalg.norm(o, axis=1, keepdims=True)
-    ends = rng.uniform(-0.8, 0.8, (3000, 3))
-    exclude = rng.integers(-1, 5, 3000)
+    ends = rng.uniform(-0.8, 0.8, (1500, 3))
+    exclude = rng.integers(-1, 5, 1500)
     got = segments_blocked(o, ends, sq, samples=32, exclude=exclude)
-    t = np.linspace(0, 1, 4000)
+    t = np.linspace(0, 1, 1500)  # 2 mm steps along 3-unit segments (4,000 found the same blocked rays)
     lf = np.stack([log_inside_outside(world_to_local(o[k] + t[:, None] * (ends[k] - o[k]), sq.rotation, sq.translation),
                                       sq.scale, sq.shape) for k in range(len(o))])  # (P, M, T)
     lf[np.arange(len(o))[exclude >= 0], exclude[exclude >= 0]] = np.inf
     depth = lf.min(axis=(1, 2))
     clear = np.abs(depth) > 0.05  # grazing rays may go either way at 32 samples
-    assert clear.mean() > 0.8 and (depth < 0).sum() > 200
+    assert clear.mean() > 0.8 and (depth < 0).sum() > 150
     assert np.array_equal(got[clear], depth[clear] < 0)
 
 
