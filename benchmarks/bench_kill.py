@@ -55,13 +55,22 @@ class KillRig:
         self.script.write_text(textwrap.dedent(EXPORT))
         self.views = root / "views"
         self._run(root / "old", 8, "#ffffff")
-        self._run(root / "new", 12, NEW_BACKGROUND)
+        # how long the new export runs after printing 'start': the window the kills are spread over
+        self.window = self._run(root / "new", 12, NEW_BACKGROUND)
         self.old, self.new = snapshot(root / "old"), snapshot(root / "new")
         assert self.old and self.new and self.old != self.new
 
-    def _run(self, out: Path, views: int, background: str) -> None:
-        subprocess.run([sys.executable, str(self.script), str(self.strokes), str(out), str(views), background],
-                       check=True, capture_output=True, timeout=300)
+    def _run(self, out: Path, views: int, background: str) -> float:
+        """Export into ``out``; the seconds it ran after printing 'start'."""
+        proc = subprocess.Popen([sys.executable, str(self.script), str(self.strokes), str(out), str(views), background],
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        assert proc.stdout.readline().strip() == "start"
+        started = time.perf_counter()
+        proc.stdout.read()
+        proc.stdout.close()
+        if proc.wait(timeout=300):
+            raise subprocess.CalledProcessError(proc.returncode, proc.args)
+        return time.perf_counter() - started
 
     def start_new_export(self) -> subprocess.Popen:
         """Reset the folder to the old export and start the new one; returns once it printed 'start'."""
@@ -93,16 +102,6 @@ class KillRig:
         return not self.leftovers() and snapshot(self.views) == self.new
 
 
-def export_seconds(rig: KillRig) -> float:
-    """How long the new export runs after printing 'start' (the window the kills are spread over)."""
-    proc = rig.start_new_export()
-    t0 = time.perf_counter()
-    proc.stdout.readline()
-    proc.wait()
-    proc.stdout.close()
-    return time.perf_counter() - t0
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=100)
@@ -118,7 +117,7 @@ def main() -> None:
         root = Path(tmp)
         write_strokes(root / "s.doodle", random_strokes(0, 24, 6))
         rig = KillRig(root, root / "s.doodle")
-        window = export_seconds(rig)
+        window = rig.window
         counts = {"old": 0, "new": 0, "mixed": 0}
         for _ in range(args.trials):
             counts[rig.trial(rng.uniform(0.0, 1.1 * window))] += 1
