@@ -14,7 +14,6 @@ from doodle.errors import DoodleError
 from doodle.exporters import DrawOptions, ExportOptions, draw, draw_many, export_views, svg_to_array, to_svg
 from doodle.exporters.drawing import on_screen_size, piece_length
 from doodle.exporters.project import depth_intervals, project_curve
-from doodle.exporters.visibility import segments_blocked
 from doodle.strokes import CurveSet, SceneFrame, StrokeSet, SuperquadricSet, write_strokes
 from doodle.strokes.bezier import bezier_points
 
@@ -185,57 +184,62 @@ class TestStubs:
         assert bad.exit_code == 2 and "--min-mark" in bad.output and not (tmp_path / "a.gif").exists()
 
 
-def _fine_mask(sq, cam, samples: int = 256) -> np.ndarray:
-    """:func:`union_mask` with fine steps (grazing slivers of flat faces are thin), cast only through the pixels
-    of the superquadrics' projected bounding boxes (no other ray can meet them): the same mask, a few times
-    faster."""
-    from doodle.strokes.superquadric import quaternion_to_matrix
+GOLD = (np.sqrt(5) - 1) / 2
 
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    pts = np.concatenate([(corners * s) @ quaternion_to_matrix(q).T + c
-                          for s, q, c in zip(sq.scale, sq.rotation, sq.translation)])
-    uv, _ = cam.project(pts)
-    u0, v0 = np.clip(np.floor(uv.min(axis=0)).astype(int) - 2, 0, [cam.width, cam.height])
-    u1, v1 = np.clip(np.ceil(uv.max(axis=0)).astype(int) + 3, 0, [cam.width, cam.height])
+
+def _first_hits(sq, cam, iterations: int = 40) -> np.ndarray:
+    """Each pixel ray's first hit with one convex superquadric ``sq`` (e1, e2 ≤ 2): ``(H, W)`` depths, inf where
+    it misses; exact to ~1e-8 of the ray's chord. log f is quasi-convex along a line (its level sets are convex
+    bodies), so a golden-section search finds its minimum on the ray's chord through the bounding sphere (below
+    0: the ray enters), and bisection on [chord start, minimum], where it only falls, finds where it crosses 0.
+    (Marching 256 steps a ray missed grazing rays at pinched edges and took 4-8 times as long.)"""
+    from doodle.strokes.superquadric import log_inside_outside, quaternion_to_matrix
+
     o, d = cam.rays()
-    reach = np.linalg.norm(sq.translation - cam.center, axis=1) + np.linalg.norm(sq.scale, axis=1)
-    ob, db = o[v0:v1, u0:u1].reshape(-1, 3), d[v0:v1, u0:u1].reshape(-1, 3)
-    out = np.zeros((cam.height, cam.width), bool)
-    out[v0:v1, u0:u1] = segments_blocked(ob, ob + float(reach.max()) * db, sq, samples).reshape(v1 - v0, u1 - u0)
-    return out
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    c, r = sq.translation[0], float(np.linalg.norm(sq.scale[0]))
+    b = ((c - o) * d).sum(1)
+    h2 = r * r - ((c - o) ** 2).sum(1) + b * b
+    k = np.nonzero(h2 > 0)[0]
+    h = np.sqrt(h2[k])
+    R = quaternion_to_matrix(sq.rotation)[0]
+    ol, dl = (o[k] - c) @ R, d[k] @ R  # the local frame: x = Rᵀ (p − c)
+
+    def f(t, ol=ol, dl=dl):
+        return log_inside_outside((ol + t[:, None] * dl)[None], sq.scale, sq.shape)[0]
+
+    a, z = np.maximum(b[k] - h, 0.0), b[k] + h
+    x1, x2 = z - GOLD * (z - a), a + GOLD * (z - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(iterations):
+        left = f1 < f2  # the minimum lies in [a, x2] (x1 becomes the new x2), else in [x1, z] (x2 the new x1)
+        z, a = np.where(left, x2, z), np.where(left, a, x1)
+        x1n, x2n = np.where(left, z - GOLD * (z - a), x2), np.where(left, x1, a + GOLD * (z - a))
+        fn = f(np.where(left, x1n, x2n))
+        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+        x1, x2 = x1n, x2n
+    t_min = 0.5 * (x1 + x2)
+    hit = f(t_min) < 0
+    lo, hi = np.maximum(b[k] - h, 0.0)[hit], t_min[hit]
+    ol, dl = ol[hit], dl[hit]
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        inside = f(mid, ol, dl) < 0
+        hi, lo = np.where(inside, mid, hi), np.where(inside, lo, mid)
+    out = np.full(len(o), np.inf)
+    out[k[hit]] = hi
+    return out.reshape(cam.height, cam.width)
 
 
 def _reference(sq, cam):
-    """Mask boundary, and mask boundary ∪ depth discontinuities (visible interior occluding contours)."""
-    m = _fine_mask(sq, cam)
+    """Mask boundary, and mask boundary ∪ depth discontinuities (visible interior occluding contours), from each
+    pixel's exact first hit with the union."""
+    best = np.minimum.reduce([_first_hits(sq.subset([j]), cam) for j in range(len(sq))])
+    m = np.isfinite(best)
     bd = m ^ ndimage.binary_erosion(m)
-    ids = np.full(m.shape, -1)
-    best = np.full(m.shape, np.inf)
-    for j in range(len(sq)):  # front-most superquadric per pixel, from each one's own first-hit depth
-        one = sq.subset([j])
-        mj = m if len(sq) == 1 else _fine_mask(one, cam)
-        depth = _first_hit(one, cam, mj)
-        closer = mj & (depth < best)
-        best[closer], ids[closer] = depth[closer], j
-    finite = np.where(np.isfinite(best), best, 1e3)
+    finite = np.where(m, best, 1e3)
     jumps = ndimage.maximum_filter(finite, 3) - ndimage.minimum_filter(finite, 3) > 0.05
     return bd, bd | (jumps & m)
-
-
-def _first_hit(sq, cam, mask):
-    from doodle.exporters.visibility import segments_blocked
-
-    o, d = cam.rays()
-    o, d = o[mask], d[mask]
-    lo = np.zeros(len(o))
-    hi = np.full(len(o), float(np.linalg.norm(sq.translation[0] - cam.center) + np.linalg.norm(sq.scale[0])))
-    for _ in range(12):  # bisection on "the segment [0, mid] already meets the superquadric"
-        mid = 0.5 * (lo + hi)
-        hit = segments_blocked(o, o + mid[:, None] * d, sq, 48)
-        hi, lo = np.where(hit, mid, hi), np.where(hit, lo, mid)
-    out = np.full(mask.shape, np.inf)
-    out[mask] = hi
-    return out
 
 
 def _silhouette_samples(drawing):

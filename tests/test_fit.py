@@ -184,7 +184,7 @@ class TestShortFits:
         """Discovery finds the chair's edges; superquadrics add no outline the curves do not draw, so none is
         drawn (some may stay as occluders), and the curves carry face normals for hidden-line removal."""
         logs = []
-        res = fit(load_scene(chair_dir), quick(outline="hull", max_superquadrics=3), progress=False,
+        res = fit(load_scene(chair_dir), quick(outline="hull", max_superquadrics=2), progress=False,
                   log=logs.append)
         s = res.strokes
         assert not s.superquadrics.drawn.any() and len(s.curves) >= 12
@@ -469,7 +469,7 @@ class TestCli:
     def test_fit_eval(self, chair_dir, tmp_path):
         out = tmp_path / "c.doodle"
         r = CliRunner().invoke(cli, ["fit", str(chair_dir), "-o", str(out), "--curves", "4", "--superquadrics", "0",
-                                     "--iterations", "20", "--size", "64"])
+                                     "--iterations", "20", "--size", "64", "--evidence-voxels", "64"])
         assert r.exit_code == 0, r.output
         assert read_strokes(out).provenance["iterations"] == 20
         r = CliRunner().invoke(cli, ["eval", str(out), str(chair_dir), "--json", str(tmp_path / "m.json"), "--size", "64"])
@@ -587,10 +587,10 @@ def snowman16(tmp_path_factory) -> Path:
     return write_sample("snowman", tmp_path_factory.mktemp("q") / "snowman", n_train=16, n_test=4, size=128)
 
 
-@pytest.mark.parametrize("m", [3, 4, 5])
+@pytest.mark.parametrize("m", [3, 5])
 def test_quality_snowman_superquadrics(snowman16, m):
     """A fixed number of superquadrics fitted to the silhouettes explains the held-out ones (measured IoU
-    0.94-0.96 at 16 views and 128 px)."""
+    0.94-0.96 at 16 views and 128 px): fewer than the snowman's parts, and more."""
     res = fit(load_scene(snowman16), FitConfig(curves=0, superquadrics=m, size=128, sq_iterations=150),
               progress=False, log=lambda m: None)
     assert len(res.strokes.superquadrics) == m

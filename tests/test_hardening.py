@@ -263,7 +263,7 @@ def test_fit_goes_on_when_checkpoints_cannot_be_written(chair_dir, tmp_path, mon
     monkeypatch.setattr("doodle.fit.state.torch.save", disk_full)
     out = tmp_path / "s.doodle"
     r = _invoke(["fit", str(chair_dir), "-o", str(out), "--size", "64", "--evidence-size", "64",
-                 "--superquadrics", "0", "--checkpoint-every", "5"])
+                 "--evidence-voxels", "64", "--superquadrics", "0", "--checkpoint-every", "5"])
     assert r.exit_code == 0, r.output
     assert "Warning: " in r.output and "checkpoint not written" in r.output and "pipeline.py" not in r.output
     assert len(read_strokes(out).curves) > 0 and not Path(f"{out}.ckpt").exists()
@@ -283,7 +283,8 @@ def test_full_disk_keeps_the_old_stroke_file(chair_dir, tmp_path):
     out = tmp_path / "s.doodle"
     out.write_text("the earlier result")
     r = subprocess.run([sys.executable, "-m", "doodle", "fit", str(chair_dir), "-o", str(out), "--size", "64",
-                        "--evidence-size", "64", "--superquadrics", "0", "--checkpoint-every", "5"],
+                        "--evidence-size", "64", "--evidence-voxels", "64", "--superquadrics", "0",
+                        "--checkpoint-every", "5"],
                        preexec_fn=small_disk, capture_output=True, text=True, timeout=280)
     assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr[-2000:]
     errors = [ln for ln in r.stderr.splitlines() if ln.startswith("Error:")]
