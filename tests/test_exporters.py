@@ -192,7 +192,7 @@ def _first_hits(sq, cam, iterations: int = 40) -> np.ndarray:
     it misses; exact to ~1e-8 of the ray's chord. log f is quasi-convex along a line (its level sets are convex
     bodies), so a golden-section search finds its minimum on the ray's chord through the bounding sphere (below
     0: the ray enters), and bisection on [chord start, minimum], where it only falls, finds where it crosses 0.
-    (Marching 256 steps a ray missed grazing rays at pinched edges and took 4-8 times as long.)"""
+    (Marching 256 steps a ray missed grazing rays at pinched edges and took 2.5-8 times as long.)"""
     from doodle.strokes.superquadric import log_inside_outside, quaternion_to_matrix
 
     o, d = cam.rays()
