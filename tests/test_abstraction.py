@@ -1,9 +1,10 @@
 """The superquadric abstraction of a volume (``doodle.fit.volume.abstraction``): parts and their count."""
 
 import numpy as np
+import pytest
 
 from doodle.fit.volume import abstraction
-from doodle.fit.volume.abstraction import _distance, abstract_volume
+from doodle.fit.volume.abstraction import _distance, _within, abstract_volume
 
 
 def _two_balls(n: int = 48):
@@ -131,3 +132,24 @@ def test_a_part_keeps_the_start_that_explains_it_best_whatever_the_sample():
                                           0.5, 3, 100, np.random.default_rng(seed))
             ious.append(fits[0][1])
     assert min(ious) > 0.72, ious
+
+
+@pytest.mark.parametrize("reach", [0.0, 0.05])
+def test_within_reach_is_the_distance_test_read_only_near_each_superquadric(reach):
+    """The parts' loop asks which of the working grid's voxels lie within a voxel of a superquadric: computed
+    only inside each one's bounding sphere (grown by the reach), the answer is the full distance's, for boxy,
+    pinched and round shapes; a set with a bent one is computed everywhere."""
+    from doodle.strokes.model import SuperquadricSet
+    from doodle.strokes.superquadric import matrix_to_quaternion
+
+    rng = np.random.default_rng(3)
+    rot = [matrix_to_quaternion(np.linalg.qr(rng.normal(size=(3, 3)))[0] * [1, 1, -1]) for _ in range(4)]
+    sq = SuperquadricSet(np.array([[0.3, 0.2, 0.1], [0.15, 0.15, 0.4], [0.2, 0.3, 0.2], [0.1, 0.1, 0.1]]),
+                         np.array([[0.1, 0.1], [1.9, 1.9], [1.0, 0.3], [0.5, 1.9]]), np.array(rot),
+                         rng.uniform(-0.4, 0.4, (4, 3)))
+    points = rng.uniform(-1, 1, (40000, 3))
+    expected = _distance(points, sq) <= reach
+    assert (expected.sum(1) > 10).all() and expected.mean() < 0.2  # some inside each, most far
+    np.testing.assert_array_equal(_within(points, sq, reach), expected)
+    bent = sq.with_deformation(np.zeros((4, 2)), np.array([[0.0, 0.0], [0.3, 0.0], [0.0, 0.0], [0.0, 0.0]]))
+    np.testing.assert_array_equal(_within(points, bent, reach), _distance(points, bent) <= reach)

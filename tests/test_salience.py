@@ -10,7 +10,8 @@ import pytest
 from doodle.evaluate import boundary_recall
 from doodle.fit.discovery.discover import choose_curves, find_candidates
 from doodle.fit.discovery.salience import (MIN_STEP, Feature, albedo_steps, choose_features, closure, duplicates,
-                                           feature_cubics, group_features, score_features, symmetry_planes)
+                                           feature_cubics, group_features, score_features, symmetry_planes,
+                                           within_reach)
 from doodle.fit.volume.carve import VoxelGrid
 from doodle.samples import load_ground_truth, painted_boundaries, sample_cameras, write_sample
 from doodle.samples.primitives import Sphere
@@ -74,6 +75,19 @@ class TestSymmetry:
         cow |= (i - 36) ** 2 + (j - 24) ** 2 + (k - 30) ** 2 <= 7**2
         normals = np.array([n for _, n in symmetry_planes(cow, grid, np.random.default_rng(0))])
         assert len(normals) == 1 and abs(normals[0, 1]) > 0.99
+
+    @pytest.mark.parametrize("reach", [1, 2, 3])
+    def test_within_reach_reads_the_distance_transform_at_the_voxels_asked(self, reach):
+        """The mirror test reads "within two voxels of the surface" at a few thousand voxels, not by a distance
+        transform of the whole grid: the same answers, at the grid's edges too."""
+        from scipy import ndimage
+
+        rng = np.random.default_rng(reach)
+        mask = rng.random((30, 25, 20)) < 0.06 / reach**3  # about half the voxels near one
+        at = np.argwhere(np.ones(mask.shape, bool))
+        expected = (ndimage.distance_transform_edt(~mask) <= reach)[tuple(at.T)]
+        assert 0.1 < expected.mean() < 0.9
+        np.testing.assert_array_equal(within_reach(mask, at, reach), expected)
 
 
 class TestChoice:

@@ -81,6 +81,7 @@ def test_ctrl_c_in_each_stage_writes_what_the_finished_stages_give_and_resume_fi
         assert s.superquadrics.drawn.any() and len(s.curves) and s.hull is None
     if stage == "assemble":  # held until the strokes were complete
         assert _bytes(out) == uninterrupted
+    _abstraction_stops()
     r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL, "--resume"])
     assert r.exit_code == 0, r.output
     assert _bytes(out) == uninterrupted and not (tmp_path / "s.doodleb.ckpt").exists()
@@ -142,6 +143,90 @@ def test_a_fit_in_another_thread_is_interrupted_as_before(snowman_dir):
         discover.run = original
     (res,) = results
     assert res.interrupted and res.strokes.hull is not None and not len(res.strokes.curves)
+    _abstraction_stops()  # started beside discovery, cancelled with the fit
+
+
+def _abstraction_stops(within: float = 30.0) -> None:
+    """The thread of an abstraction started beside discovery ends once the fit that started it ended."""
+    import threading
+    import time
+
+    deadline = time.monotonic() + within
+    while any(t.name == "doodle-superquadrics" for t in threading.enumerate()):
+        assert time.monotonic() < deadline, "the abstraction's thread still runs after its fit ended"
+        time.sleep(0.05)
+
+
+def test_the_abstraction_beside_discovery_is_the_one_after_it(snowman_dir, tmp_path, monkeypatch, uninterrupted):
+    """The volume's abstraction starts in its own thread once the volume is carved and runs while discovery
+    does; the file is the one a fit gives that starts it only when discovery is done."""
+    import threading
+    import time
+
+    from doodle.fit.stages import discover, superquadrics
+    from doodle.fit.volume import abstraction
+
+    seen: dict[str, object] = {}
+    abstract, discover_run, begin = abstraction.abstract_volume, discover.run, superquadrics.begin
+
+    def abstract_noted(*args, **kwargs):
+        seen["thread"], seen["started"] = threading.current_thread().name, time.perf_counter()
+        return abstract(*args, **kwargs)
+
+    def discover_noted(state):
+        discover_run(state)
+        seen["discovered"] = time.perf_counter()
+
+    monkeypatch.setattr(abstraction, "abstract_volume", abstract_noted)
+    monkeypatch.setattr(discover, "run", discover_noted)
+    out = tmp_path / "beside.doodleb"
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL])
+    assert r.exit_code == 0, r.output
+    assert seen["thread"] == "doodle-superquadrics" and seen["started"] < seen["discovered"]
+    assert _bytes(out) == uninterrupted
+    # started only when its stage comes
+    monkeypatch.setattr(superquadrics, "begin", lambda state: begin(state) if "discover" in state.done else None)
+    r = CliRunner().invoke(cli, ["fit", str(snowman_dir), "-o", str(out), *SMALL])
+    assert r.exit_code == 0, r.output
+    assert seen["started"] > seen["discovered"] and _bytes(out) == uninterrupted
+
+
+def test_work_beside_the_stages_says_its_messages_when_taken_and_stops_when_cancelled():
+    import threading
+
+    from doodle.fit.beside import Beside, Cancelled, stopped
+
+    def work(log):
+        log("one")
+        log("two")
+        return 42
+
+    said: list[str] = []
+    assert Beside(work, "test").result(said.append) == 42 and said == ["one", "two"]
+    stopped()  # outside a Beside: nothing to stop
+
+    running, ended = threading.Event(), threading.Event()
+
+    def forever(log):
+        running.set()
+        try:
+            while True:
+                stopped()
+        finally:
+            ended.set()
+
+    beside = Beside(forever, "test")
+    assert running.wait(10)
+    beside.cancel()
+    assert ended.wait(10)
+    with pytest.raises(Cancelled):
+        beside.result(said.append)
+
+    def fails(log):
+        raise ValueError("in the thread")
+
+    with pytest.raises(ValueError, match="in the thread"):
+        Beside(fails, "test").result(said.append)
 
 
 def test_curves_0_draws_the_outline_or_says_why_not(chair_dir, tmp_path):

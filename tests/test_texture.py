@@ -42,6 +42,20 @@ class TestHull:
         assert surface[inside] < 0.05  # deep inside: no surface near, nothing to judge
         assert coherence[57, 30, 11] < 0.5  # inside a plate thinner than the reach, its sides face both ways
 
+    def test_the_same_hull_is_not_smoothed_twice(self, slab):
+        """A fit asks for its hull's coherence in discovery and again in the superquadrics' judging: the second
+        time it gets the same (read-only) arrays; another hull, or the first one changed, gets its own."""
+        _, occupied = slab
+        first = hull_coherence(occupied)
+        again = hull_coherence(occupied.copy())
+        assert again[0] is first[0] and again[1] is first[1]
+        assert not first[0].flags.writeable
+        changed = occupied.copy()
+        changed[20:30, 20:30, 50:52] = True  # a bump on the top face
+        other = hull_coherence(changed)
+        assert other[0] is not first[0] and other[0][25, 25, 49] < first[0][25, 25, 49]
+        np.testing.assert_array_equal(hull_coherence(occupied)[0], first[0])  # and back: the first hull's values
+
     def test_a_line_painted_on_a_face_lies_on_a_smooth_face_and_an_edge_does_not(self, slab):
         grid, occupied = slab
         painted = _segment((15, 30, 49.5), (45, 20, 49.5))  # across the top face

@@ -2,6 +2,8 @@
 
     prepare → volume → discover → superquadrics → curves → assemble
 
+(the superquadrics' abstraction of the volume starts beside discovery, in a thread: it needs only the volume)
+
 :func:`fit` runs them, falls back to the hull's outline when ``outline="auto"`` finds the compact abstraction
 does not draw the object, writes a checkpoint after every stage (and within the gradient stages), resumes
 from any, and on Ctrl-C returns the best stroke set the finished stages give (``FitResult.interrupted``).
@@ -146,11 +148,16 @@ def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, res
                     say("interrupted: the volume is carved; writing what it gives (--resume goes on)")
                     save()
                     break
+            if stage is discover:  # the abstraction needs only the carved volume: it runs beside discovery
+                superquadrics.begin(state)
             clock = time.perf_counter()
             try:
                 stage.run(state)
             except KeyboardInterrupt:
                 state.interrupted = True
+            except BaseException:
+                superquadrics.cancel(state)
+                raise
             seconds[stage.NAME] = time.perf_counter() - clock
             if state.interrupted:
                 say(f"interrupted in the {stage.NAME} stage: writing what the finished stages give "
@@ -159,6 +166,7 @@ def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, res
                 break
             state.done.append(stage.NAME)
             save()
+        superquadrics.cancel(state)  # started beside discovery, not taken: the fit ends before its stage
         hold.hold()  # the assembly takes a moment: a Ctrl-C now is held until the strokes are complete
         clock = time.perf_counter()
         strokes = assemble.assemble(state)

@@ -30,7 +30,9 @@ from .gradient.optimize import StageState
 from .volume.carve import VoxelGrid
 
 if TYPE_CHECKING:
+    from .beside import Beside
     from .discovery.discover import Candidates
+    from .volume.abstraction import Abstraction
 
 CHECKPOINT_VERSION = 4
 MAX_CHECKPOINT_BYTES = 1 << 30
@@ -108,6 +110,8 @@ class FitState:
     """Gradient path: points inside the object ``(P, 3)`` (fixed superquadrics start at farthest ones)."""
     init_method: str = "evidence"
     # superquadrics
+    abstraction: "Beside[Abstraction] | None" = None
+    """The volume's abstraction, started beside discovery once the volume is carved (never checkpointed)."""
     superquadrics: SuperquadricSet | None = None
     judged: bool = False
     """Whether the superquadrics' outlines were judged against the views (then confirmed after the curves)."""

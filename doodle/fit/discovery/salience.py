@@ -174,17 +174,32 @@ def symmetry_planes(occupied: np.ndarray, grid, rng: np.random.Generator, sample
     if len(boundary) > samples:
         boundary = boundary[rng.choice(len(boundary), samples, replace=False)]
     surface = grid.centres(boundary.astype(np.float64))
-    near_surface = ndimage.distance_transform_edt(~shell) <= 2.0
     planes = []
     for n in axes:
         mirrored = surface - 2.0 * ((surface - centre) @ n)[:, None] * n
         q = np.round(grid.coordinates(mirrored)).astype(int)
         ok = ((q >= 0) & (q < np.array(occupied.shape))).all(1)
         on = np.zeros(len(q), bool)
-        on[ok] = near_surface[tuple(q[ok].T)]
+        on[ok] = within_reach(shell, q[ok], 2)
         if on.mean() >= SYMMETRIC:
             planes.append((centre, n))
     return planes
+
+
+def within_reach(mask: np.ndarray, at: np.ndarray, reach: int) -> np.ndarray:
+    """``(K,)``: whether a voxel of ``mask`` ``(X, Y, Z)`` lies within ``reach`` voxels (Euclidean, centre to
+    centre) of each voxel ``at`` ``(K, 3)``: ``distance_transform_edt(~mask)[at] <= reach``, read at the K voxels
+    alone (the transform of a whole 192³ grid took 2 s of a DTU skull's fit)."""
+    r = np.arange(-reach, reach + 1)
+    offsets = np.stack(np.meshgrid(r, r, r, indexing="ij"), -1).reshape(-1, 3)
+    offsets = offsets[(offsets**2).sum(1) <= reach**2]
+    out = np.zeros(len(at), bool)
+    shape = np.array(mask.shape)
+    for o in offsets:
+        q = at + o
+        inside = ((q >= 0) & (q < shape)).all(1)
+        out[inside] |= mask[tuple(q[inside].T)]
+    return out
 
 
 def _sides(field: np.ndarray, at: np.ndarray, across: np.ndarray, reach: float, order: int = 1

@@ -16,6 +16,7 @@ not judged: the hull says nothing about the surface there.
 
 from __future__ import annotations
 
+import hashlib
 import math
 
 import numpy as np
@@ -38,6 +39,12 @@ SMOOTH_SHARE = 0.3
 SURFACE_WEIGHT = 0.3
 
 
+#: The last hull's :func:`hull_coherence`, ``(key, (coherence, surface))`` with the hull's bits and the arguments
+#: as key: a fit asks for the same hull's in discovery and in the superquadrics' judging (1.2 s each time on a
+#: 192-voxel grid). Replaced whole, never changed in place, so threads may share it.
+_LAST: tuple | None = None
+
+
 def hull_coherence(occupied: np.ndarray, sigma: float = 1.5, reach: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
     """Coherence of the hull's outward directions, and how much surface is near, at every voxel.
 
@@ -49,8 +56,20 @@ def hull_coherence(occupied: np.ndarray, sigma: float = 1.5, reach: float = 2.0)
     Returns:
         ``coherence`` ``(X, Y, Z)`` in [0, 1] (``|G * ∇f| / (G * |∇f|)``) and ``surface`` ``(X, Y, Z)``: the
         summed gradient magnitude over a flat face's value (1 on a flat face's surface, falling to 0 a few
-        voxels away from any surface).
+        voxels away from any surface). Read-only: the same arrays go to the next caller with this hull.
     """
+    global _LAST
+    key = (occupied.shape, hashlib.sha1(np.packbits(occupied)).hexdigest(), sigma, reach)
+    last = _LAST
+    if last is None or last[0] != key:
+        fields = _coherence(occupied, sigma, reach)
+        for a in fields:
+            a.setflags(write=False)  # shared by every caller until the next hull
+        last = _LAST = (key, fields)
+    return last[1]
+
+
+def _coherence(occupied: np.ndarray, sigma: float, reach: float) -> tuple[np.ndarray, np.ndarray]:
     f = ndimage.gaussian_filter(occupied.astype(np.float32), sigma)
     grad = np.gradient(f)
     weight = ndimage.gaussian_filter(np.sqrt(sum(g * g for g in grad)), reach)

@@ -3,6 +3,9 @@
 Three ways to fit them, chosen in ``prepare`` (:class:`~doodle.fit.state.Plan`):
 
 - ``abstract`` (the compact default): fitted to the carved volume in 3D (:mod:`doodle.fit.volume.abstraction`).
+  It needs only the volume, so the pipeline starts it (:func:`begin`) in a thread beside discovery
+  (:mod:`doodle.fit.beside`) and this stage takes its result: on two cores the skull's fit 67–77 → 57–62 s,
+  bit for bit the same strokes.
 - ``grow``: grown against the silhouettes one move at a time (:mod:`doodle.fit.gradient.grow`) — beside the
   hull's outline when the discovered curves leave too much of the outline undrawn, or without discovery
   unless the images' lines are mostly long straight edges.
@@ -53,12 +56,10 @@ def run(state: FitState) -> None:
             state.superquadrics = SuperquadricSet()
             return
     if mode == "abstract":
-        from ..volume.abstraction import abstract_volume
-
-        grid, occupied = state.carving.grid, state.carving.occupied
-        found = abstract_volume(grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit,
-                                cfg.level.superquadric_gain, steps=cfg.abstraction_steps, seed=cfg.seed,
-                                deform=cfg.deform, log=say)
+        if state.abstraction is None:  # not started beside discovery (a fit resumed after it)
+            begin(state)
+        found = state.abstraction.result(say)
+        state.abstraction = None
         sq = SuperquadricParams.from_set(found.superquadrics).to_set()  # as the gradient paths store them (float32)
         plain = None if found.plain is None else SuperquadricParams.from_set(found.plain).to_set()
     else:
@@ -77,6 +78,27 @@ def run(state: FitState) -> None:
     state.superquadrics = sq
     say(f"superquadrics: {len(sq)}, {int(sq.drawn.sum())} drawn (training silhouette IoU "
         f"{silhouette_iou(sq, sq_scene.cameras, sq_scene.masks):.3f})")
+
+
+def begin(state: FitState) -> None:
+    """Start the volume's abstraction in a thread (:class:`~doodle.fit.beside.Beside`) when this stage will
+    want it: it needs only the carved volume, so it runs beside discovery; :func:`run` takes its result."""
+    if state.plan.superquadrics != "abstract" or state.carving is None or state.abstraction is not None:
+        return
+    from ..beside import Beside
+    from ..volume.abstraction import abstract_volume
+
+    cfg, grid, occupied = state.config, state.carving.grid, state.carving.occupied
+    state.abstraction = Beside(lambda log: abstract_volume(
+        grid.origin, grid.voxel, grid.axes, occupied, cfg.thin, cfg.sq_limit, cfg.level.superquadric_gain,
+        steps=cfg.abstraction_steps, seed=cfg.seed, deform=cfg.deform, log=log), NAME)
+
+
+def cancel(state: FitState) -> None:
+    """Stop an abstraction started beside discovery whose result no stage will take (the fit ends before)."""
+    if state.abstraction is not None:
+        state.abstraction.cancel()
+        state.abstraction = None
 
 
 def _wanted(state: FitState) -> bool:
