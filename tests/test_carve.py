@@ -74,3 +74,22 @@ def test_the_hull_carved_in_threads_is_the_hull_carved_in_one(snowman, monkeypat
     many = carve_hull(work, 64)
     assert one[0].shape == many[0].shape and np.array_equal(one[0].origin, many[0].origin)
     assert one[1].any() and np.array_equal(one[1], many[1])
+
+
+def test_points_project_to_the_pixels_and_depths_of_the_pinhole_formula():
+    """``project_points`` (the carving's and the edge vote's hot loop, float32) adds the translation column by
+    column: the same pixels and depths, to the bit, as ``floor((R p + t)_xy / z · f + c)`` written whole."""
+    from doodle.cameras import Camera
+
+    rng = np.random.default_rng(7)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    cam = Camera(512.3, 511.7, 250.2, 260.9, 512, 512, q * np.sign(np.linalg.det(q)), np.array([0.1, -0.2, 4.0]))
+    pts = rng.normal(scale=1.5, size=(5000, 3)).astype(np.float32)
+    u, v, z = carve.project_points(cam, pts)
+    pc = pts @ cam.R.astype(np.float32).T + cam.t.astype(np.float32)
+    zs = np.where(pc[:, 2] > 1e-6, pc[:, 2], 1e-6)
+    np.testing.assert_array_equal(z, pc[:, 2])
+    with np.errstate(invalid="ignore"):  # points behind the camera: their pixels are never read
+        for got, row, f, c in ((u, 0, cam.fx, cam.cx), (v, 1, cam.fy, cam.cy)):
+            np.testing.assert_array_equal(got, np.floor(pc[:, row] / zs * np.float32(f) + np.float32(c)).astype(np.int32))
+    assert 0.3 < ((u >= 0) & (u < 512) & (v >= 0) & (v < 512)).mean() < 1

@@ -87,12 +87,14 @@ def fit_axes(points: np.ndarray, up: np.ndarray, prefer_world: float = 0.9, step
 
 def project_points(cam: Camera, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pixel indices ``(u, v)`` (floor) and depth of world points; float32 math, it is the hot loop."""
-    R = cam.R.astype(np.float32)
-    pc = pts @ R.T + cam.t.astype(np.float32)
-    z = pc[:, 2]
+    R, t = cam.R.astype(np.float32), cam.t.astype(np.float32)
+    pc = pts @ R.T
+    # the translation added column by column: the same sums as ``pc + t``, whose broadcast over rows of 3
+    # took half of this function's time (the edge vote's hot loop: 90 views × every candidate voxel on Lego)
+    x, y, z = pc[:, 0] + t[0], pc[:, 1] + t[1], pc[:, 2] + t[2]
     zs = np.where(z > 1e-6, z, 1e-6)
-    u = np.floor(pc[:, 0] / zs * np.float32(cam.fx) + np.float32(cam.cx)).astype(np.int32)
-    v = np.floor(pc[:, 1] / zs * np.float32(cam.fy) + np.float32(cam.cy)).astype(np.int32)
+    u = np.floor(x / zs * np.float32(cam.fx) + np.float32(cam.cx)).astype(np.int32)
+    v = np.floor(y / zs * np.float32(cam.fy) + np.float32(cam.cy)).astype(np.int32)
     return u, v, z
 
 
