@@ -27,7 +27,7 @@ from . import config as config_module
 from .config import FitConfig
 from .stages import assemble, curves, discover, superquadrics, volume
 from .stages.prepare import prepare
-from .state import check_resumable, checkpoint_payload, load_checkpoint, restore, save_checkpoint
+from .state import FitState, check_resumable, checkpoint_payload, load_checkpoint, restore, save_checkpoint
 
 #: The stages after ``prepare``, in order (``assemble`` runs last, also after an interruption).
 STAGES = (volume, discover, superquadrics, curves)
@@ -138,35 +138,10 @@ def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, res
                 save_checkpoint(path, checkpoint_payload(state, stage, step))
 
         state.checkpointer = save
-        for stage in STAGES:
-            if stage.NAME in state.done:
-                continue
-            if stage is not volume:
-                hold.release()  # there is something to draw now: Ctrl-C interrupts the stage
-                if hold.requested:  # a Ctrl-C held through the first stages
-                    state.interrupted = True
-                    say("interrupted: the volume is carved; writing what it gives (--resume goes on)")
-                    save()
-                    break
-            if stage is discover:  # the abstraction needs only the carved volume: it runs beside discovery
-                superquadrics.begin(state)
-            clock = time.perf_counter()
-            try:
-                stage.run(state)
-            except KeyboardInterrupt:
-                state.interrupted = True
-            except BaseException:
-                superquadrics.cancel(state)
-                raise
-            seconds[stage.NAME] = time.perf_counter() - clock
-            if state.interrupted:
-                say(f"interrupted in the {stage.NAME} stage: writing what the finished stages give "
-                    "(--resume goes on)")
-                save(stage.NAME, state.curve_state.step if stage is curves and state.curve_state else 0)
-                break
-            state.done.append(stage.NAME)
-            save()
-        superquadrics.cancel(state)  # started beside discovery, not taken: the fit ends before its stage
+        try:
+            _run_stages(state, hold, save, say, seconds)
+        finally:
+            superquadrics.cancel(state)  # started beside discovery and not taken: the fit ended before its stage
         hold.hold()  # the assembly takes a moment: a Ctrl-C now is held until the strokes are complete
         clock = time.perf_counter()
         strokes = assemble.assemble(state)
@@ -181,6 +156,37 @@ def _fit(scene: Scene, cfg: FitConfig, checkpoint: str | os.PathLike | None, res
             path.unlink(missing_ok=True)
     elapsed = strokes.provenance["seconds"] if strokes is not None else time.perf_counter() - state.started
     return FitResult(strokes, state.interrupted, elapsed, messages, state.outline_drawn, seconds)
+
+
+def _run_stages(state: FitState, hold: "_Hold", save: Callable[..., None], say: Callable[[str], None],
+                seconds: dict[str, float]) -> None:
+    """The stages after ``prepare`` that are not done yet, in order, until one is interrupted (its checkpoint
+    written); each stage's seconds go to ``seconds``."""
+    for stage in STAGES:
+        if stage.NAME in state.done:
+            continue
+        if stage is not volume:
+            hold.release()  # there is something to draw now: Ctrl-C interrupts the stage
+            if hold.requested:  # a Ctrl-C held through the first stages
+                state.interrupted = True
+                say("interrupted: the volume is carved; writing what it gives (--resume goes on)")
+                save()
+                return
+        if stage is discover:  # the abstraction needs only the carved volume: it runs beside discovery
+            superquadrics.begin(state)
+        clock = time.perf_counter()
+        try:
+            stage.run(state)
+        except KeyboardInterrupt:
+            state.interrupted = True
+        seconds[stage.NAME] = time.perf_counter() - clock
+        if state.interrupted:
+            say(f"interrupted in the {stage.NAME} stage: writing what the finished stages give "
+                "(--resume goes on)")
+            save(stage.NAME, state.curve_state.step if stage is curves and state.curve_state else 0)
+            return
+        state.done.append(stage.NAME)
+        save()
 
 
 class _Hold:
